@@ -1,0 +1,487 @@
+//! The native backend: the dual active-set method of Goldfarb and Idnani
+//! (Math. Programming 27, 1983) specialised to the identity Hessian, with
+//! constraint generation for large row counts.
+//!
+//! With `H = I` the method needs no Hessian factorisation: it starts at the
+//! unconstrained minimum `x = 0`, repeatedly adds the most violated row, and
+//! drops rows whose multiplier would turn negative. It keeps `N_A = J R`, a QR
+//! factorisation of the active rows (as columns), updated by Givens rotations.
+//! The active rows are linearly independent, so at most `cols` are active.
+//!
+//! Accuracy at tiny depths: after every addition `x` is recomputed as the
+//! least-norm solution of the active rows taken as equalities,
+//! `x = J_1 R^{-T} h_A`, instead of being accumulated by steps whose length
+//! grows like `1 / depth^2`; the final active set is polished by a fresh
+//! Householder QR (faer). Both are backward stable, so the residual of every
+//! active row stays at rounding level even when `||x|| = 1e9`.
+
+use crate::problem::{dot, norm};
+use crate::tolerance::rounding_tolerance;
+use crate::{Error, LdpProblem, LdpSolver, Solution, SolveOptions, Status};
+use rayon::prelude::*;
+
+/// The always-compiled default backend.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct NativeSolver;
+
+impl LdpSolver for NativeSolver {
+    fn name(&self) -> &'static str {
+        "native"
+    }
+
+    fn solve(&self, problem: &LdpProblem, options: &SolveOptions) -> Result<Solution, Error> {
+        Ok(solve_native(problem, options))
+    }
+}
+
+/// Rows of the problem divided by their norms, gathered into a working set.
+struct WorkingSet {
+    cols: usize,
+    rows: Vec<f64>,
+    h: Vec<f64>,
+    global: Vec<usize>,
+}
+
+impl WorkingSet {
+    fn row(&self, k: usize) -> &[f64] {
+        &self.rows[k * self.cols..(k + 1) * self.cols]
+    }
+
+    fn len(&self) -> usize {
+        self.global.len()
+    }
+
+    fn push(&mut self, problem: &LdpProblem, inv_norm: &[f64], j: usize) {
+        let s = inv_norm[j];
+        self.rows.extend(problem.row(j).iter().map(|v| v * s));
+        self.h.push(problem.h()[j] * s);
+        self.global.push(j);
+    }
+}
+
+/// How an inner solve on the working set ended.
+enum InnerEnd {
+    Converged,
+    Infeasible,
+    IterationLimit,
+}
+
+/// State of the dual method: `J` (n x n orthogonal, column-major), `R` (upper
+/// triangular, column-major, leading `q x q` block used), the active rows
+/// (working-set indices), their multipliers and the primal point.
+struct DualActiveSet {
+    n: usize,
+    j: Vec<f64>,
+    r: Vec<f64>,
+    q: usize,
+    active: Vec<usize>,
+    u: Vec<f64>,
+    x: Vec<f64>,
+    dep_tol: f64,
+    iterations: usize,
+    max_iterations: usize,
+    // scratch
+    d: Vec<f64>,
+    z: Vec<f64>,
+    rr: Vec<f64>,
+}
+
+impl DualActiveSet {
+    fn new(n: usize, dep_tol: f64, max_iterations: usize) -> Self {
+        let mut j = vec![0.0; n * n];
+        for k in 0..n {
+            j[k * n + k] = 1.0;
+        }
+        Self {
+            n,
+            j,
+            r: vec![0.0; n * n],
+            q: 0,
+            active: Vec::with_capacity(n),
+            u: Vec::with_capacity(n),
+            x: vec![0.0; n],
+            dep_tol,
+            iterations: 0,
+            max_iterations,
+            d: vec![0.0; n],
+            z: vec![0.0; n],
+            rr: vec![0.0; n],
+        }
+    }
+
+    /// `d = J^T np`, `z = J_2 d_2` (step direction), `rr = R^{-1} d_1`;
+    /// returns `||d_2||`.
+    fn directions(&mut self, np: &[f64]) -> f64 {
+        let n = self.n;
+        for k in 0..n {
+            self.d[k] = dot(&self.j[k * n..(k + 1) * n], np);
+        }
+        self.z.iter_mut().for_each(|v| *v = 0.0);
+        for k in self.q..n {
+            let dk = self.d[k];
+            let col = &self.j[k * n..(k + 1) * n];
+            for (zi, ci) in self.z.iter_mut().zip(col) {
+                *zi += dk * ci;
+            }
+        }
+        // Back substitution R rr = d_1.
+        for i in (0..self.q).rev() {
+            let mut s = self.d[i];
+            for k in i + 1..self.q {
+                s -= self.r[k * n + i] * self.rr[k];
+            }
+            self.rr[i] = s / self.r[i * n + i];
+        }
+        norm(&self.d[self.q..n])
+    }
+
+    /// Appends the column whose `J^T` image is `self.d` to the factorisation.
+    fn add_column(&mut self) {
+        let n = self.n;
+        let q = self.q;
+        for jj in (q + 1..n).rev() {
+            let (cc, ss) = (self.d[jj - 1], self.d[jj]);
+            let h = cc.hypot(ss);
+            if h == 0.0 {
+                continue;
+            }
+            self.d[jj] = 0.0;
+            let (mut c, mut s) = (cc / h, ss / h);
+            if c < 0.0 {
+                c = -c;
+                s = -s;
+                self.d[jj - 1] = -h;
+            } else {
+                self.d[jj - 1] = h;
+            }
+            let (a, b) = self.j.split_at_mut(jj * n);
+            rotate(&mut a[(jj - 1) * n..], &mut b[..n], c, s);
+        }
+        for i in 0..=q {
+            self.r[q * n + i] = self.d[i];
+        }
+        self.q += 1;
+    }
+
+    /// Removes active position `pos`, restoring the triangular form.
+    fn drop_column(&mut self, pos: usize) {
+        let n = self.n;
+        self.active.remove(pos);
+        self.u.remove(pos);
+        for k in pos..self.q - 1 {
+            for i in 0..n {
+                self.r[k * n + i] = self.r[(k + 1) * n + i];
+            }
+        }
+        for i in 0..n {
+            self.r[(self.q - 1) * n + i] = 0.0;
+        }
+        self.q -= 1;
+        for k in pos..self.q {
+            let (cc, ss) = (self.r[k * n + k], self.r[k * n + k + 1]);
+            let h = cc.hypot(ss);
+            if h == 0.0 {
+                continue;
+            }
+            let (mut c, mut s) = (cc / h, ss / h);
+            self.r[k * n + k + 1] = 0.0;
+            if c < 0.0 {
+                self.r[k * n + k] = -h;
+                c = -c;
+                s = -s;
+            } else {
+                self.r[k * n + k] = h;
+            }
+            // Rows k and k+1 of R, columns k+1..q.
+            let xny = s / (1.0 + c);
+            for col in k + 1..self.q {
+                let t1 = self.r[col * n + k];
+                let t2 = self.r[col * n + k + 1];
+                let new1 = t1 * c + t2 * s;
+                self.r[col * n + k] = new1;
+                self.r[col * n + k + 1] = xny * (t1 + new1) - t2;
+            }
+            let (a, b) = self.j.split_at_mut((k + 1) * n);
+            rotate(&mut a[k * n..], &mut b[..n], c, s);
+        }
+    }
+
+    /// Least-norm point of the active rows as equalities, and its multipliers.
+    fn recompute_point(&mut self, ws: &WorkingSet) {
+        let n = self.n;
+        let q = self.q;
+        // Forward substitution R^T y = h_A (stored in rr).
+        for i in 0..q {
+            let mut s = ws.h[self.active[i]];
+            for k in 0..i {
+                s -= self.r[i * n + k] * self.rr[k];
+            }
+            self.rr[i] = s / self.r[i * n + i];
+        }
+        self.x.iter_mut().for_each(|v| *v = 0.0);
+        for k in 0..q {
+            let y = self.rr[k];
+            let col = &self.j[k * n..(k + 1) * n];
+            for (xi, ci) in self.x.iter_mut().zip(col) {
+                *xi += y * ci;
+            }
+        }
+        // u = R^{-1} y.
+        for i in (0..q).rev() {
+            let mut s = self.rr[i];
+            for k in i + 1..q {
+                s -= self.r[k * n + i] * self.u[k];
+            }
+            self.u[i] = s / self.r[i * n + i];
+        }
+    }
+
+    /// Runs the dual method until no working-set row is violated.
+    fn solve(&mut self, ws: &WorkingSet, is_active: &mut Vec<bool>) -> InnerEnd {
+        let tol = rounding_tolerance(self.n);
+        is_active.resize(ws.len(), false);
+        loop {
+            // Most violated inactive row.
+            let norm_x = norm(&self.x);
+            let mut best: Option<(usize, f64)> = None;
+            for k in 0..ws.len() {
+                if is_active[k] {
+                    continue;
+                }
+                let s = dot(ws.row(k), &self.x) - ws.h[k];
+                if s < -tol * (ws.h[k].abs() + norm_x) && best.is_none_or(|(_, b)| s < b) {
+                    best = Some((k, s));
+                }
+            }
+            let Some((p, mut sp)) = best else {
+                return InnerEnd::Converged;
+            };
+            let np = ws.row(p).to_vec();
+            let mut u_plus = 0.0;
+            loop {
+                self.iterations += 1;
+                if self.iterations > self.max_iterations {
+                    return InnerEnd::IterationLimit;
+                }
+                let z_norm = self.directions(&np);
+                // Partial step: the first multiplier to reach zero.
+                let mut t1 = f64::INFINITY;
+                let mut drop_at = None;
+                for k in 0..self.q {
+                    if self.rr[k] > 0.0 {
+                        let t = self.u[k] / self.rr[k];
+                        if t < t1 {
+                            t1 = t;
+                            drop_at = Some(k);
+                        }
+                    }
+                }
+                // Full step: the new row becomes tight.
+                let t2 = if z_norm > self.dep_tol {
+                    -sp / (z_norm * z_norm)
+                } else {
+                    f64::INFINITY
+                };
+                if t1.is_infinite() && t2.is_infinite() {
+                    return InnerEnd::Infeasible;
+                }
+                if t2.is_infinite() {
+                    // Dual step only: the new row is dependent on active rows.
+                    for k in 0..self.q {
+                        self.u[k] -= t1 * self.rr[k];
+                    }
+                    u_plus += t1;
+                    let pos = drop_at.expect("finite t1 has an index");
+                    is_active[self.active[pos]] = false;
+                    self.drop_column(pos);
+                    continue;
+                }
+                let t = t1.min(t2);
+                for (xi, zi) in self.x.iter_mut().zip(&self.z) {
+                    *xi += t * zi;
+                }
+                for k in 0..self.q {
+                    self.u[k] -= t * self.rr[k];
+                }
+                u_plus += t;
+                if t2 <= t1 {
+                    self.add_column();
+                    self.active.push(p);
+                    self.u.push(u_plus);
+                    is_active[p] = true;
+                    self.recompute_point(ws);
+                    break;
+                }
+                let pos = drop_at.expect("partial step has an index");
+                is_active[self.active[pos]] = false;
+                self.drop_column(pos);
+                sp = dot(&np, &self.x) - ws.h[p];
+            }
+        }
+    }
+}
+
+/// Plane rotation of two columns: `a' = c a + s b`, `b' = xny (a + a') - b`.
+fn rotate(a: &mut [f64], b: &mut [f64], c: f64, s: f64) {
+    let xny = s / (1.0 + c);
+    for (ai, bi) in a.iter_mut().zip(b.iter_mut()) {
+        let t1 = *ai;
+        let t2 = *bi;
+        *ai = t1 * c + t2 * s;
+        *bi = xny * (*ai + t1) - t2;
+    }
+}
+
+/// Least-norm solution of the active rows as equalities by a fresh
+/// Householder QR of `N_A` (columns = active rows): `x = Q_1 R^{-T} h_A`.
+fn polish(ws: &WorkingSet, active: &[usize], n: usize) -> Option<Vec<f64>> {
+    let q = active.len();
+    if q == 0 {
+        return Some(vec![0.0; n]);
+    }
+    let a = faer::Mat::<f64>::from_fn(n, q, |i, k| ws.row(active[k])[i]);
+    let qr = a.qr();
+    let r = qr.thin_R();
+    let qthin = qr.compute_thin_Q();
+    let mut y = vec![0.0; q];
+    for i in 0..q {
+        let mut s = ws.h[active[i]];
+        for (k, yk) in y.iter().enumerate().take(i) {
+            s -= r[(k, i)] * yk;
+        }
+        let diag = r[(i, i)];
+        if diag == 0.0 || !diag.is_finite() {
+            return None;
+        }
+        y[i] = s / diag;
+    }
+    let mut x = vec![0.0; n];
+    for (k, yk) in y.iter().enumerate() {
+        for (i, xi) in x.iter_mut().enumerate() {
+            *xi += qthin[(i, k)] * yk;
+        }
+    }
+    x.iter().all(|v| v.is_finite()).then_some(x)
+}
+
+/// Largest normalised violation relative to the rounding tolerance scale.
+fn worst_violation(problem: &LdpProblem, inv_norm: &[f64], x: &[f64], parallel: bool) -> f64 {
+    let cols = problem.cols();
+    let norm_x = norm(x);
+    let f = |(j, row): (usize, &[f64])| {
+        if inv_norm[j] == 0.0 {
+            return f64::NEG_INFINITY;
+        }
+        let hn = problem.h()[j] * inv_norm[j];
+        (hn - dot(row, x) * inv_norm[j]) / (hn.abs() + norm_x)
+    };
+    if parallel {
+        problem.g().par_chunks_exact(cols).enumerate().map(f).reduce(|| f64::NEG_INFINITY, f64::max)
+    } else {
+        problem.g().chunks_exact(cols).enumerate().map(f).fold(f64::NEG_INFINITY, f64::max)
+    }
+}
+
+fn solve_native(problem: &LdpProblem, options: &SolveOptions) -> Solution {
+    let n = problem.cols();
+    let m = problem.rows();
+    let inv_norm: Vec<f64> = problem
+        .row_norms()
+        .into_iter()
+        .map(|v| if v > 0.0 { 1.0 / v } else { 0.0 })
+        .collect();
+    // A zero row with h > 0 can never hold.
+    if let Some(j) = (0..m).find(|&j| inv_norm[j] == 0.0 && problem.h()[j] > 0.0) {
+        return Solution::measured(problem, Status::Infeasible, vec![0.0; n], 0, vec![j], "native");
+    }
+    let usable: Vec<usize> = (0..m).filter(|&j| inv_norm[j] > 0.0).collect();
+    let generate = usable.len() > options.working_set_threshold;
+    let mut ws = WorkingSet { cols: n, rows: Vec::new(), h: Vec::new(), global: Vec::new() };
+    let mut in_ws = vec![false; m];
+    let mut seed = |j: usize, ws: &mut WorkingSet| {
+        if j < m && inv_norm[j] > 0.0 && !in_ws[j] {
+            in_ws[j] = true;
+            ws.push(problem, &inv_norm, j);
+        }
+    };
+    if generate {
+        for &j in &options.warm_start {
+            seed(j, &mut ws);
+        }
+        // A stratified subset: evenly spaced rows.
+        let initial = (8 * n).max(256).min(usable.len());
+        for k in 0..initial {
+            seed(usable[k * usable.len() / initial], &mut ws);
+        }
+    } else {
+        for &j in &usable {
+            seed(j, &mut ws);
+        }
+    }
+    let tol = rounding_tolerance(n);
+    let mut state = DualActiveSet::new(
+        n,
+        options.dependency_tolerance_for(n),
+        options.max_iterations_for(n),
+    );
+    let mut is_active = Vec::new();
+    let batch = options.generation_batch_for(n);
+    let status = loop {
+        match state.solve(&ws, &mut is_active) {
+            InnerEnd::Infeasible => break Status::Infeasible,
+            InnerEnd::IterationLimit => break Status::IterationLimit,
+            InnerEnd::Converged => {}
+        }
+        if !generate {
+            break Status::Solved;
+        }
+        // One pass over every row: collect the violated rows outside the set.
+        let x = &state.x;
+        let norm_x = norm(x);
+        let check = |(j, row): (usize, &[f64])| -> Option<(f64, usize)> {
+            if in_ws[j] || inv_norm[j] == 0.0 {
+                return None;
+            }
+            let hn = problem.h()[j] * inv_norm[j];
+            let s = dot(row, x) * inv_norm[j] - hn;
+            (s < -tol * (hn.abs() + norm_x)).then_some((s, j))
+        };
+        let mut violated: Vec<(f64, usize)> = if options.parallel {
+            problem.g().par_chunks_exact(n).enumerate().filter_map(check).collect()
+        } else {
+            problem.g().chunks_exact(n).enumerate().filter_map(check).collect()
+        };
+        if violated.is_empty() {
+            break Status::Solved;
+        }
+        if violated.len() > batch {
+            violated.select_nth_unstable_by(batch, |a, b| a.0.total_cmp(&b.0));
+            violated.truncate(batch);
+        }
+        for &(_, j) in &violated {
+            in_ws[j] = true;
+            ws.push(problem, &inv_norm, j);
+        }
+    };
+    let active_global: Vec<usize> = state.active.iter().map(|&k| ws.global[k]).collect();
+    if status != Status::Solved {
+        let x = if status == Status::Infeasible { vec![0.0; n] } else { state.x.clone() };
+        return Solution::measured(problem, status, x, state.iterations, active_global, "native");
+    }
+    let mut x = state.x.clone();
+    if options.polish {
+        if let Some(px) = polish(&ws, &state.active, n) {
+            let before = worst_violation(problem, &inv_norm, &x, options.parallel);
+            let after = worst_violation(problem, &inv_norm, &px, options.parallel);
+            if after <= before.max(0.0) || after <= tol {
+                x = px;
+            }
+        }
+    }
+    let sol = Solution::measured(problem, Status::Solved, x, state.iterations, active_global, "native");
+    if sol.residuals.satisfied {
+        sol
+    } else {
+        Solution { status: Status::NumericalTrouble, ..sol }
+    }
+}

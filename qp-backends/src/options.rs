@@ -1,0 +1,130 @@
+//! Solver settings, built with `Default` plus validated `with_*` methods.
+
+use crate::Error;
+
+/// Settings shared by every backend (each uses what applies to it).
+#[derive(Debug, Clone, PartialEq)]
+pub struct SolveOptions {
+    pub(crate) max_iterations: Option<usize>,
+    pub(crate) dependency_tolerance: Option<f64>,
+    pub(crate) warm_start: Vec<usize>,
+    pub(crate) working_set_threshold: usize,
+    pub(crate) generation_batch: Option<usize>,
+    pub(crate) polish: bool,
+    pub(crate) parallel: bool,
+}
+
+impl Default for SolveOptions {
+    fn default() -> Self {
+        Self {
+            max_iterations: None,
+            dependency_tolerance: None,
+            warm_start: Vec::new(),
+            working_set_threshold: 3000,
+            generation_batch: None,
+            polish: true,
+            parallel: true,
+        }
+    }
+}
+
+impl SolveOptions {
+    /// Upper bound on active-set changes (native) or iterations (others).
+    /// Default: `200 * cols + 2000`.
+    ///
+    /// # Errors
+    /// Zero is refused.
+    pub fn with_max_iterations(mut self, n: usize) -> Result<Self, Error> {
+        if n == 0 {
+            return Err(invalid("max_iterations", "must be at least 1"));
+        }
+        self.max_iterations = Some(n);
+        Ok(self)
+    }
+
+    /// Below this norm the projection of a new row onto the complement of the
+    /// active rows counts as zero (the row is linearly dependent). Default:
+    /// `64 * cols * eps`, which resolves depths far below 1e-9.
+    ///
+    /// # Errors
+    /// Values outside `(0, 1e-3]` are refused.
+    pub fn with_dependency_tolerance(mut self, tol: f64) -> Result<Self, Error> {
+        if !(tol > 0.0 && tol <= 1e-3) {
+            return Err(invalid("dependency_tolerance", "must lie in (0, 1e-3]"));
+        }
+        self.dependency_tolerance = Some(tol);
+        Ok(self)
+    }
+
+    /// Rows (for example a previous active set) that seed the native solver's
+    /// working set.
+    pub fn with_warm_start(mut self, rows: Vec<usize>) -> Self {
+        self.warm_start = rows;
+        self
+    }
+
+    /// Problems with more rows than this are solved by constraint generation
+    /// (native backend): a working set is solved, every row is checked, the
+    /// most violated rows join, repeat. Default 3000.
+    pub fn with_working_set_threshold(mut self, rows: usize) -> Self {
+        self.working_set_threshold = rows;
+        self
+    }
+
+    /// Rows added per constraint-generation pass. Default `max(2 cols, 32)`.
+    ///
+    /// # Errors
+    /// Zero is refused.
+    pub fn with_generation_batch(mut self, rows: usize) -> Result<Self, Error> {
+        if rows == 0 {
+            return Err(invalid("generation_batch", "must be at least 1"));
+        }
+        self.generation_batch = Some(rows);
+        Ok(self)
+    }
+
+    /// Re-solve the final active rows as equalities (least-norm solution by a
+    /// fresh QR factorisation). Default on.
+    pub fn with_polish(mut self, on: bool) -> Self {
+        self.polish = on;
+        self
+    }
+
+    /// Use rayon for passes over all rows. Default on; turn off when the
+    /// caller already runs many solves in parallel.
+    pub fn with_parallel(mut self, on: bool) -> Self {
+        self.parallel = on;
+        self
+    }
+
+    pub(crate) fn max_iterations_for(&self, cols: usize) -> usize {
+        self.max_iterations.unwrap_or(200 * cols + 2000)
+    }
+
+    pub(crate) fn dependency_tolerance_for(&self, cols: usize) -> f64 {
+        self.dependency_tolerance
+            .unwrap_or(64.0 * cols.max(1) as f64 * f64::EPSILON)
+    }
+
+    pub(crate) fn generation_batch_for(&self, cols: usize) -> usize {
+        self.generation_batch.unwrap_or((2 * cols).max(32))
+    }
+}
+
+fn invalid(name: &'static str, reason: &str) -> Error {
+    Error::InvalidOption { name, reason: reason.into() }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn invalid_values_are_refused() {
+        assert!(SolveOptions::default().with_max_iterations(0).is_err());
+        assert!(SolveOptions::default().with_dependency_tolerance(0.0).is_err());
+        assert!(SolveOptions::default().with_dependency_tolerance(f64::NAN).is_err());
+        assert!(SolveOptions::default().with_generation_batch(0).is_err());
+        assert!(SolveOptions::default().with_dependency_tolerance(1e-12).is_ok());
+    }
+}

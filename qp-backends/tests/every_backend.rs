@@ -1,0 +1,235 @@
+//! One test body, run on every compiled backend (pbrt/Mitsuba style): known
+//! optima, infeasibility, duplicate and near-parallel rows, extreme row
+//! scales and tiny margins. A backend that cannot cope must say so through
+//! its status or through our residual check, never by a silently wrong
+//! "verified" point.
+
+use qp_backends::tolerance::rounding_tolerance;
+use qp_backends::{Backend, LdpProblem, Solution, SolveOptions, Status};
+
+/// How close each backend is documented to get to the least-distance optimum
+/// (relative error in x) on a problem of condition number `cond`. The native
+/// solver is backward stable, so its forward error is rounding times `cond`;
+/// the interior-point and ADMM backends stop at their own tolerances. `None`:
+/// the backend solves the LP form, whose point is feasible but not least-norm.
+fn optimum_accuracy(b: Backend, n: usize, cond: f64) -> Option<f64> {
+    match b {
+        Backend::Native => Some(rounding_tolerance(n) * cond),
+        Backend::Clarabel => Some(1e-6 * cond),
+        Backend::Osqp => Some(1e-3 * cond),
+        Backend::GoodLp => None,
+    }
+}
+
+/// Infeasibility must be reported as such; OSQP's ADMM may instead run out of
+/// iterations, which still says "no solution" (never a verified point).
+fn check_infeasible(name: &str, p: &LdpProblem) {
+    for b in Backend::available() {
+        let s = solve(b, p);
+        assert!(!s.is_verified(), "{name}/{b}: verified point on an infeasible problem");
+        if b == Backend::Osqp && s.status == Status::IterationLimit {
+            eprintln!("{name}/{b}: stopped at the iteration limit instead of detecting infeasibility");
+            continue;
+        }
+        assert_eq!(s.status, Status::Infeasible, "{name}/{b}");
+    }
+}
+
+fn solve(b: Backend, p: &LdpProblem) -> Solution {
+    b.solve(p, &SolveOptions::default()).unwrap_or_else(|e| panic!("{b}: {e}"))
+}
+
+fn rel_err(x: &[f64], want: &[f64]) -> f64 {
+    let d: f64 = x.iter().zip(want).map(|(a, b)| (a - b) * (a - b)).sum::<f64>().sqrt();
+    let n: f64 = want.iter().map(|a| a * a).sum::<f64>().sqrt();
+    d / n.max(f64::MIN_POSITIVE)
+}
+
+/// The shared body for problems with a known least-distance optimum.
+fn check_known_optimum(name: &str, p: &LdpProblem, want: &[f64], cond: f64) {
+    for b in Backend::available() {
+        let s = solve(b, p);
+        let claimed = matches!(s.status, Status::Solved | Status::Inaccurate);
+        if b == Backend::Native {
+            assert!(s.is_verified(), "{name}/{b}: {:?} {:?}", s.status, s.residuals);
+        }
+        if s.claims_solved_but_violates() {
+            // The verifier caught a bad point: acceptable only for ADMM.
+            assert_eq!(b, Backend::Osqp, "{name}/{b}: solved but violates {:?}", s.residuals);
+            eprintln!("{name}/{b}: reported solved, verifier found violation {:.3e}", s.residuals.max_violation);
+            continue;
+        }
+        if !claimed {
+            assert_ne!(b, Backend::Native, "{name}: native failed with {:?}", s.status);
+            eprintln!("{name}/{b}: gave up with status {}", s.status);
+            continue;
+        }
+        match optimum_accuracy(b, p.cols(), cond) {
+            Some(tol) if s.is_verified() => {
+                let e = rel_err(&s.x, want);
+                assert!(e <= tol, "{name}/{b}: relative error {e:.3e} > {tol:.0e}, x = {:?}", s.x);
+            }
+            _ => assert!(s.is_verified(), "{name}/{b}: {:?}", s.residuals),
+        }
+    }
+}
+
+#[test]
+fn axis_bounds() {
+    let p = LdpProblem::from_rows(&[vec![1.0, 0.0], vec![0.0, 1.0]], vec![1.0, 2.0]).unwrap();
+    check_known_optimum("axis_bounds", &p, &[1.0, 2.0], 1.0);
+}
+
+#[test]
+fn single_halfspace_with_inactive_rows() {
+    // x1 + x2 >= 2 gives (1, 1); x1 >= -5 and x2 >= -3 stay inactive.
+    let p = LdpProblem::from_rows(
+        &[vec![1.0, 1.0, 0.0], vec![1.0, 0.0, 0.0], vec![0.0, 1.0, 0.0]],
+        vec![2.0, -5.0, -3.0],
+    )
+    .unwrap();
+    check_known_optimum("single_halfspace", &p, &[1.0, 1.0, 0.0], 1.0);
+}
+
+#[test]
+fn constraint_that_must_be_dropped() {
+    // Adding x1 + x2 >= 4 after x1 >= 1 makes x1 >= 1 inactive: optimum (2, 2).
+    let p = LdpProblem::from_rows(&[vec![1.0, 0.0], vec![1.0, 1.0]], vec![1.5, 4.0]).unwrap();
+    check_known_optimum("drop", &p, &[2.0, 2.0], 3.0);
+}
+
+#[test]
+fn infeasible_pair_is_detected() {
+    let p = LdpProblem::from_rows(&[vec![1.0, 0.0], vec![-1.0, 0.0], vec![0.0, 1.0]], vec![1.0, 1.0, 0.0]).unwrap();
+    check_infeasible("pair", &p);
+}
+
+#[test]
+fn infeasible_cycle_is_detected() {
+    // x1 >= 1, x2 >= 1, -x1 - x2 >= -1: infeasible, but every pair is feasible.
+    let p = LdpProblem::from_rows(&[vec![1.0, 0.0], vec![0.0, 1.0], vec![-1.0, -1.0]], vec![1.0, 1.0, -1.0]).unwrap();
+    check_infeasible("cycle", &p);
+}
+
+#[test]
+fn zero_row_with_positive_h_is_infeasible() {
+    let p = LdpProblem::from_rows(&[vec![0.0, 0.0], vec![1.0, 0.0]], vec![1.0, 1.0]).unwrap();
+    assert_eq!(solve(Backend::Native, &p).status, Status::Infeasible);
+}
+
+#[test]
+fn duplicate_rows() {
+    let rows = vec![vec![1.0, 0.0], vec![1.0, 0.0], vec![0.0, 1.0], vec![1.0, 0.0], vec![0.0, 1.0]];
+    let p = LdpProblem::from_rows(&rows, vec![1.0, 1.0, 2.0, 1.0, 2.0]).unwrap();
+    check_known_optimum("duplicates", &p, &[1.0, 2.0], 1.0);
+}
+
+#[test]
+fn near_parallel_rows() {
+    let e = 1e-6;
+    let p = LdpProblem::from_rows(&[vec![1.0, 0.0], vec![1.0, e]], vec![1.0, 1.0 + e]).unwrap();
+    // Only the second row is active: x = h a / ||a||^2.
+    let k = (1.0 + e) / (1.0 + e * e);
+    check_known_optimum("near_parallel", &p, &[k, k * e], 1.0);
+}
+
+#[test]
+fn rows_scaled_by_extreme_factors() {
+    let p = LdpProblem::from_rows(&[vec![1e-12, 0.0], vec![0.0, 1e12]], vec![1e-12, 2e12]).unwrap();
+    check_known_optimum("scaled_rows", &p, &[1.0, 2.0], 1.0);
+}
+
+/// A thin cone of depth `d` around the unit direction `axis` in `n`
+/// dimensions: rows `d axis +- sqrt(1 - d^2) e_k` for directions `e_k`
+/// orthogonal to the axis, `h = 1`. The optimum is `axis / d`.
+fn thin_cone(n: usize, d: f64) -> (LdpProblem, Vec<f64>) {
+    // axis = e_0 rotated a little so that no coordinate is special.
+    let mut axis: Vec<f64> = (0..n).map(|k| 1.0 / (k as f64 + 2.0)).collect();
+    let na = axis.iter().map(|v| v * v).sum::<f64>().sqrt();
+    axis.iter_mut().for_each(|v| *v /= na);
+    // Gram-Schmidt complement of the axis.
+    let mut basis: Vec<Vec<f64>> = Vec::new();
+    for k in 0..n {
+        let mut e = vec![0.0; n];
+        e[k] = 1.0;
+        for b in std::iter::once(&axis).chain(basis.iter()) {
+            let c: f64 = e.iter().zip(b).map(|(x, y)| x * y).sum();
+            e.iter_mut().zip(b).for_each(|(x, y)| *x -= c * y);
+        }
+        let ne = e.iter().map(|v| v * v).sum::<f64>().sqrt();
+        if ne > 1e-8 && basis.len() < n - 1 {
+            basis.push(e.iter().map(|v| v / ne).collect());
+        }
+    }
+    let s = (1.0 - d * d).sqrt();
+    let mut rows = Vec::new();
+    for b in &basis {
+        for sign in [1.0, -1.0] {
+            rows.push(axis.iter().zip(b).map(|(a, w)| d * a + sign * s * w).collect());
+        }
+    }
+    let h = vec![1.0; rows.len()];
+    let want = axis.iter().map(|a| a / d).collect();
+    (LdpProblem::from_rows(&rows, h).unwrap(), want)
+}
+
+#[test]
+fn tiny_margins_down_to_1e_minus_9() {
+    for d in [1e-3, 1e-5, 1e-7, 1e-9] {
+        for n in [2, 6, 22] {
+            let (p, want) = thin_cone(n, d);
+            let s = solve(Backend::Native, &p);
+            assert!(s.is_verified(), "d={d:e} n={n}: {:?} {:?}", s.status, s.residuals);
+            // Exact: the slack ratio is 1 to rounding and the depth is d.
+            assert!((s.residuals.min_slack_ratio - 1.0).abs() < 1e-6, "d={d:e} n={n}: {:?}", s.residuals);
+            assert!((s.residuals.depth / d - 1.0).abs() < 1e-6, "d={d:e} n={n}: {:?}", s.residuals);
+            assert!(rel_err(&s.x, &want) < 1e-6, "d={d:e} n={n}");
+            assert!(s.active_set.len() <= n);
+        }
+        let (p, want) = thin_cone(6, d);
+        check_known_optimum(&format!("thin_cone_{d:e}"), &p, &want, 1.0 / d);
+    }
+}
+
+#[test]
+fn constraint_generation_matches_full_solve() {
+    // Many rows tangent to a circle-like polytope in 3-D: x . n_j >= 1.
+    let mut rows = Vec::new();
+    for i in 0..40_000usize {
+        let t = i as f64 * 0.618_033_988_75;
+        let z = 0.5 + 0.5 * ((i as f64 + 0.5) / 40_000.0);
+        let r = (1.0 - z * z).sqrt();
+        rows.push(vec![r * (t * 6.283).cos(), r * (t * 6.283).sin(), z]);
+    }
+    let h = vec![1.0; rows.len()];
+    let p = LdpProblem::from_rows(&rows, h).unwrap();
+    let full = Backend::Native
+        .solve(&p, &SolveOptions::default().with_working_set_threshold(usize::MAX))
+        .unwrap();
+    let gen = Backend::Native
+        .solve(&p, &SolveOptions::default().with_working_set_threshold(100))
+        .unwrap();
+    assert!(full.is_verified() && gen.is_verified());
+    assert!(rel_err(&gen.x, &full.x) < 1e-10, "{:?} vs {:?}", gen.x, full.x);
+    // Warm start from the active set reproduces it.
+    let warm = Backend::Native
+        .solve(
+            &p,
+            &SolveOptions::default().with_working_set_threshold(100).with_warm_start(gen.active_set.clone()),
+        )
+        .unwrap();
+    assert!(rel_err(&warm.x, &full.x) < 1e-10);
+    assert!(warm.iterations <= gen.iterations);
+}
+
+#[test]
+fn unknown_and_missing_backends_are_errors() {
+    assert!("gurobi".parse::<Backend>().is_err());
+    for b in Backend::ALL {
+        if !b.is_compiled() {
+            let p = LdpProblem::from_rows(&[vec![1.0]], vec![1.0]).unwrap();
+            let err = b.solve(&p, &SolveOptions::default()).unwrap_err();
+            assert!(err.to_string().contains("not compiled"), "{err}");
+        }
+    }
+}
