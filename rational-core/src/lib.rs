@@ -1,1 +1,52 @@
-//! x
+//! Rational functions fitted inside interval data.
+//!
+//! Given samples `x_i` with intervals `[lo_i, hi_i]`, find `r = p / q` with
+//! `lo_i <= r(x_i) <= hi_i` and `q(x_i) > 0` at every sample. With `p` and
+//! `q` linear in their coefficients, each sample gives two linear
+//! inequalities, and the most robust coefficient vector solves the convex
+//! least-distance program P(n_p, n_q) (Salazar Celis, Cuyt and Verdonk 2007;
+//! Pacanowski et al., "Rational BRDF", 2012). Its error bound is known a
+//! priori: the fit lies inside every interval, which this crate checks in f64
+//! for every fit it returns, whatever the solver reported.
+//!
+//! The crate knows nothing about reflectance: it offers multivariate bases
+//! ([`Basis`]), interval data ([`IntervalData`]), [`RationalFunction`], the
+//! problem builder, the sweep over coefficient budgets ([`fit`]), pole
+//! control ([`PoleControl`]) and verification.
+//!
+//! ```
+//! use rational_core::{fit, FitSettings, IntervalData};
+//!
+//! // Runge's function within 1% at 200 points.
+//! let x: Vec<f64> = (0..200).map(|i| -1.0 + 2.0 * i as f64 / 199.0).collect();
+//! let v: Vec<f64> = x.iter().map(|x| 1.0 / (1.0 + 25.0 * x * x)).collect();
+//! let data = IntervalData::from_values_relative(1, x, v, 0.01)?;
+//! let report = fit(&data, &FitSettings::default())?;
+//! assert!(report.verification.satisfied);
+//! assert!(report.errors.max_relative <= 0.01);
+//! assert_eq!(report.n_p + report.n_q, 4); // 1/(1 + 25 x^2) is (1, 3) in Chebyshev form
+//! # Ok::<(), rational_core::FitError>(())
+//! ```
+
+mod basis;
+mod data;
+mod error;
+mod fit;
+pub mod poles;
+mod problem;
+mod rational;
+mod report;
+mod settings;
+pub mod verify;
+
+pub use basis::{graded_indices, Basis, BasisFamily, Domain};
+pub use data::IntervalData;
+pub use error::FitError;
+pub use fit::{fit, fit_split, fit_split_with_constraints, fit_with_constraints, split_problem, SplitFit};
+pub use poles::PoleControl;
+pub use problem::{build_problem, condition_number, DesignMatrix, ExtraConstraints, NoExtraConstraints};
+pub use qp_backends::{Backend, SolveOptions, Status};
+pub use rational::RationalFunction;
+pub use report::{FitReport, PoleReport, SplitSummary};
+pub use settings::{FitSettings, Progress, ProgressFn, Selection};
+pub use verify::{ErrorFigures, Verification};

@@ -1,0 +1,505 @@
+//! Multivariate polynomial bases: tensor products of a univariate family
+//! after an affine map of every coordinate's domain to `[-1, 1]`, enumerated
+//! in graded order (total degree 0, then 1, ...).
+
+use crate::FitError;
+use serde::{Deserialize, Serialize};
+
+/// Univariate polynomial family.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum BasisFamily {
+    /// `x^k`: simple, ill-conditioned beyond modest degrees.
+    Monomial,
+    /// Chebyshev polynomials of the first kind `T_k`: the sensible default.
+    #[default]
+    Chebyshev,
+    /// Legendre polynomials `P_k`.
+    Legendre,
+}
+
+impl std::str::FromStr for BasisFamily {
+    type Err = FitError;
+    fn from_str(s: &str) -> Result<Self, FitError> {
+        match s.to_ascii_lowercase().as_str() {
+            "monomial" | "power" => Ok(Self::Monomial),
+            "chebyshev" | "cheb" => Ok(Self::Chebyshev),
+            "legendre" => Ok(Self::Legendre),
+            _ => Err(FitError::InvalidSetting {
+                name: "basis",
+                reason: format!("unknown family `{s}` (monomial, chebyshev, legendre)"),
+            }),
+        }
+    }
+}
+
+impl std::fmt::Display for BasisFamily {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Self::Monomial => "monomial",
+            Self::Chebyshev => "chebyshev",
+            Self::Legendre => "legendre",
+        })
+    }
+}
+
+impl BasisFamily {
+    /// Values `phi_0..=phi_deg` at `t` (and derivatives when `dv` is given).
+    pub(crate) fn values(self, t: f64, v: &mut [f64], dv: Option<&mut [f64]>) {
+        let deg = v.len() - 1;
+        v[0] = 1.0;
+        if deg >= 1 {
+            v[1] = t;
+        }
+        for k in 1..deg {
+            let kf = k as f64;
+            v[k + 1] = match self {
+                Self::Monomial => v[k] * t,
+                Self::Chebyshev => 2.0 * t * v[k] - v[k - 1],
+                Self::Legendre => ((2.0 * kf + 1.0) * t * v[k] - kf * v[k - 1]) / (kf + 1.0),
+            };
+        }
+        if let Some(d) = dv {
+            d[0] = 0.0;
+            if deg >= 1 {
+                d[1] = 1.0;
+            }
+            for k in 1..deg {
+                let kf = k as f64;
+                d[k + 1] = match self {
+                    Self::Monomial => (kf + 1.0) * v[k],
+                    // T'_{k+1} = 2 T_k + 2 t T'_k - T'_{k-1}
+                    Self::Chebyshev => 2.0 * v[k] + 2.0 * t * d[k] - d[k - 1],
+                    // P'_{k+1} = P'_{k-1} + (2k + 1) P_k
+                    Self::Legendre => d[k - 1] + (2.0 * kf + 1.0) * v[k],
+                };
+            }
+        }
+    }
+
+    /// Power-series coefficients (in the mapped variable) of `phi_0..=phi_deg`.
+    pub(crate) fn power_coefficients(self, deg: usize) -> Vec<Vec<f64>> {
+        let mut out: Vec<Vec<f64>> = Vec::with_capacity(deg + 1);
+        for k in 0..=deg {
+            let mut c = vec![0.0; deg + 1];
+            match (self, k) {
+                (_, 0) => c[0] = 1.0,
+                (_, 1) => c[1] = 1.0,
+                (Self::Monomial, _) => c[k] = 1.0,
+                (Self::Chebyshev, _) => {
+                    for j in 0..deg {
+                        c[j + 1] += 2.0 * out[k - 1][j];
+                    }
+                    for j in 0..=deg {
+                        c[j] -= out[k - 2][j];
+                    }
+                }
+                (Self::Legendre, _) => {
+                    let m = (k - 1) as f64;
+                    for j in 0..deg {
+                        c[j + 1] += (2.0 * m + 1.0) / (m + 1.0) * out[k - 1][j];
+                    }
+                    for j in 0..=deg {
+                        c[j] -= m / (m + 1.0) * out[k - 2][j];
+                    }
+                }
+            }
+            out.push(c);
+        }
+        out
+    }
+}
+
+/// An axis-aligned box; every coordinate is mapped affinely onto `[-1, 1]`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Domain {
+    /// Lower corner.
+    pub lower: Vec<f64>,
+    /// Upper corner.
+    pub upper: Vec<f64>,
+}
+
+impl Domain {
+    /// A box from its corners.
+    ///
+    /// # Errors
+    /// Mismatched lengths, non-finite corners or `lower > upper`.
+    pub fn new(lower: Vec<f64>, upper: Vec<f64>) -> Result<Self, FitError> {
+        if lower.len() != upper.len() || lower.is_empty() {
+            return Err(FitError::DimensionMismatch(format!(
+                "domain corners have {} and {} coordinates",
+                lower.len(),
+                upper.len()
+            )));
+        }
+        for (k, (&a, &b)) in lower.iter().zip(&upper).enumerate() {
+            if !a.is_finite() || !b.is_finite() {
+                return Err(FitError::NonFinite { what: "domain corner of coordinate", index: k, value: if a.is_finite() { b } else { a } });
+            }
+            if a > b {
+                return Err(FitError::InvalidSetting {
+                    name: "domain",
+                    reason: format!("coordinate {k}: lower {a} above upper {b}"),
+                });
+            }
+        }
+        Ok(Self { lower, upper })
+    }
+
+    /// Number of coordinates.
+    pub fn dim(&self) -> usize {
+        self.lower.len()
+    }
+
+    /// Maps coordinate `k` of `x` to `[-1, 1]`; a degenerate side maps to 0.
+    #[inline]
+    pub fn map(&self, k: usize, x: f64) -> f64 {
+        let w = self.upper[k] - self.lower[k];
+        if w > 0.0 {
+            (2.0 * (x - self.lower[k]) / w - 1.0).clamp(-1.0e300, 1.0e300)
+        } else {
+            0.0
+        }
+    }
+
+    /// `d t / d x` of the map of coordinate `k`.
+    #[inline]
+    pub fn scale(&self, k: usize) -> f64 {
+        let w = self.upper[k] - self.lower[k];
+        if w > 0.0 {
+            2.0 / w
+        } else {
+            0.0
+        }
+    }
+}
+
+/// Multi-indices of total degree `0, 1, 2, ...` in `dim` variables, in a fixed
+/// order within each degree (first coordinate's exponent descending); the
+/// first `len` of them.
+pub fn graded_indices(dim: usize, len: usize) -> Vec<Vec<u16>> {
+    let mut out = Vec::with_capacity(len);
+    let mut degree = 0u16;
+    while out.len() < len {
+        push_degree(dim, degree, &mut Vec::new(), &mut out, len);
+        degree += 1;
+    }
+    out
+}
+
+fn push_degree(dim: usize, remaining: u16, prefix: &mut Vec<u16>, out: &mut Vec<Vec<u16>>, len: usize) {
+    if out.len() >= len {
+        return;
+    }
+    if prefix.len() + 1 == dim {
+        let mut idx = prefix.clone();
+        idx.push(remaining);
+        out.push(idx);
+        return;
+    }
+    for e in (0..=remaining).rev() {
+        prefix.push(e);
+        push_degree(dim, remaining - e, prefix, out, len);
+        prefix.pop();
+    }
+}
+
+/// The first `len` functions of a graded tensor basis on a domain.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(into = "BasisSpec", try_from = "BasisSpec")]
+pub struct Basis {
+    family: BasisFamily,
+    domain: Domain,
+    indices: Vec<Vec<u16>>,
+    max_degree: Vec<usize>,
+}
+
+/// Serialised form of a [`Basis`]: the indices follow from the rule.
+#[derive(Serialize, Deserialize)]
+struct BasisSpec {
+    family: BasisFamily,
+    domain: Domain,
+    len: usize,
+}
+
+impl From<Basis> for BasisSpec {
+    fn from(b: Basis) -> Self {
+        Self { family: b.family, len: b.len(), domain: b.domain }
+    }
+}
+
+impl TryFrom<BasisSpec> for Basis {
+    type Error = FitError;
+    fn try_from(s: BasisSpec) -> Result<Self, FitError> {
+        let d = Domain::new(s.domain.lower, s.domain.upper)?;
+        Basis::new(s.family, d, s.len)
+    }
+}
+
+impl Basis {
+    /// The first `len` graded functions of `family` on `domain`.
+    ///
+    /// # Errors
+    /// `len == 0` or degrees beyond 1000.
+    pub fn new(family: BasisFamily, domain: Domain, len: usize) -> Result<Self, FitError> {
+        if len == 0 {
+            return Err(FitError::InvalidSetting { name: "basis length", reason: "must be at least 1".into() });
+        }
+        if domain.dim() == 1 && len > 1000 {
+            return Err(FitError::InvalidSetting { name: "basis length", reason: "degree above 1000".into() });
+        }
+        let indices = graded_indices(domain.dim(), len);
+        let max_degree = (0..domain.dim())
+            .map(|k| indices.iter().map(|i| i[k] as usize).max().unwrap_or(0))
+            .collect();
+        Ok(Self { family, domain, indices, max_degree })
+    }
+
+    /// Number of functions.
+    pub fn len(&self) -> usize {
+        self.indices.len()
+    }
+
+    /// Always false: a basis has at least one function.
+    pub fn is_empty(&self) -> bool {
+        self.indices.is_empty()
+    }
+
+    /// Number of variables.
+    pub fn dim(&self) -> usize {
+        self.domain.dim()
+    }
+
+    /// The family.
+    pub fn family(&self) -> BasisFamily {
+        self.family
+    }
+
+    /// The domain box.
+    pub fn domain(&self) -> &Domain {
+        &self.domain
+    }
+
+    /// Multi-index of function `j`.
+    pub fn index(&self, j: usize) -> &[u16] {
+        &self.indices[j]
+    }
+
+    /// Largest exponent of coordinate `k` among the first `n` functions.
+    pub fn degree_in(&self, k: usize, n: usize) -> usize {
+        self.indices[..n].iter().map(|i| i[k] as usize).max().unwrap_or(0)
+    }
+
+    /// Values of the first `out.len()` functions at `x` (original coordinates).
+    pub fn eval_into(&self, x: &[f64], out: &mut [f64]) {
+        let t: Vec<f64> = (0..self.dim()).map(|k| self.domain.map(k, x[k])).collect();
+        self.eval_mapped_into(&t, out);
+    }
+
+    /// As [`Basis::eval_into`] with coordinates already mapped to `[-1, 1]`.
+    pub fn eval_mapped_into(&self, t: &[f64], out: &mut [f64]) {
+        let d = self.dim();
+        let n = out.len().min(self.len());
+        if d == 1 {
+            self.family.values(t[0], &mut out[..n], None);
+            return;
+        }
+        let tables = self.tables(t, false).0;
+        for (j, o) in out[..n].iter_mut().enumerate() {
+            let idx = &self.indices[j];
+            let mut v = 1.0;
+            for k in 0..d {
+                v *= tables[k][idx[k] as usize];
+            }
+            *o = v;
+        }
+    }
+
+    /// Values and partial derivatives (`grad[k][j] = d phi_j / d x_k`, in the
+    /// original coordinates) of the first `values.len()` functions.
+    pub fn eval_with_gradient(&self, x: &[f64], values: &mut [f64], grad: &mut [Vec<f64>]) {
+        let d = self.dim();
+        let t: Vec<f64> = (0..d).map(|k| self.domain.map(k, x[k])).collect();
+        let (tab, dtab) = self.tables(&t, true);
+        let n = values.len().min(self.len());
+        for j in 0..n {
+            let idx = &self.indices[j];
+            let mut v = 1.0;
+            for k in 0..d {
+                v *= tab[k][idx[k] as usize];
+            }
+            values[j] = v;
+            for k in 0..d {
+                let mut g = dtab[k][idx[k] as usize] * self.domain.scale(k);
+                for l in 0..d {
+                    if l != k {
+                        g *= tab[l][idx[l] as usize];
+                    }
+                }
+                grad[k][j] = g;
+            }
+        }
+    }
+
+    fn tables(&self, t: &[f64], with_derivative: bool) -> (Vec<Vec<f64>>, Vec<Vec<f64>>) {
+        let d = self.dim();
+        let mut tab = Vec::with_capacity(d);
+        let mut dtab = Vec::with_capacity(if with_derivative { d } else { 0 });
+        for k in 0..d {
+            let mut v = vec![0.0; self.max_degree[k] + 1];
+            if with_derivative {
+                let mut dv = vec![0.0; self.max_degree[k] + 1];
+                self.family.values(t[k], &mut v, Some(&mut dv));
+                dtab.push(dv);
+            } else {
+                self.family.values(t[k], &mut v, None);
+            }
+            tab.push(v);
+        }
+        (tab, dtab)
+    }
+
+    /// `sum_j c_j phi_j(x)` for the first `c.len()` functions; in one
+    /// variable by Clenshaw's recurrence (Horner for monomials).
+    pub fn combine(&self, c: &[f64], x: &[f64]) -> f64 {
+        if self.dim() == 1 {
+            return self.combine_1d(c, self.domain.map(0, x[0]));
+        }
+        let mut phi = vec![0.0; c.len()];
+        self.eval_into(x, &mut phi);
+        phi.iter().zip(c).map(|(a, b)| a * b).sum()
+    }
+
+    fn combine_1d(&self, c: &[f64], t: f64) -> f64 {
+        let n = c.len();
+        if n == 0 {
+            return 0.0;
+        }
+        match self.family {
+            BasisFamily::Monomial => c.iter().rev().fold(0.0, |acc, &ck| acc * t + ck),
+            BasisFamily::Chebyshev => {
+                // b_k = c_k + 2 t b_{k+1} - b_{k+2}; result c_0 + t b_1 - b_2.
+                let (mut b1, mut b2) = (0.0, 0.0);
+                for &ck in c[1..].iter().rev() {
+                    let b0 = ck + 2.0 * t * b1 - b2;
+                    b2 = b1;
+                    b1 = b0;
+                }
+                c[0] + t * b1 - b2
+            }
+            BasisFamily::Legendre => {
+                // alpha_k = (2k+1) t / (k+1), beta_{k+1} = -(k+1) / (k+2).
+                let (mut b1, mut b2) = (0.0, 0.0);
+                for k in (1..n).rev() {
+                    let kf = k as f64;
+                    let alpha = (2.0 * kf + 1.0) * t / (kf + 1.0);
+                    let beta = -(kf + 1.0) / (kf + 2.0);
+                    let b0 = c[k] + alpha * b1 + beta * b2;
+                    b2 = b1;
+                    b1 = b0;
+                }
+                c[0] + t * b1 - 0.5 * b2
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn naive(family: BasisFamily, k: usize, t: f64) -> f64 {
+        match family {
+            BasisFamily::Monomial => t.powi(k as i32),
+            BasisFamily::Chebyshev => (k as f64 * t.acos()).cos(),
+            BasisFamily::Legendre => {
+                // Rodrigues-free explicit sum: P_k(t) = 2^-k sum C(k,i)^2 (t-1)^(k-i) (t+1)^i
+                let mut s = 0.0;
+                for i in 0..=k {
+                    let c = binom(k, i);
+                    s += c * c * (t - 1.0).powi((k - i) as i32) * (t + 1.0).powi(i as i32);
+                }
+                s / 2f64.powi(k as i32)
+            }
+        }
+    }
+
+    fn binom(n: usize, k: usize) -> f64 {
+        (0..k).fold(1.0, |acc, i| acc * (n - i) as f64 / (i + 1) as f64)
+    }
+
+    #[test]
+    fn graded_order_in_two_variables() {
+        let idx = graded_indices(2, 6);
+        assert_eq!(idx, vec![vec![0, 0], vec![1, 0], vec![0, 1], vec![2, 0], vec![1, 1], vec![0, 2]]);
+        assert_eq!(graded_indices(3, 10).len(), 10);
+    }
+
+    #[test]
+    fn values_match_closed_forms() {
+        for family in [BasisFamily::Monomial, BasisFamily::Chebyshev, BasisFamily::Legendre] {
+            for &t in &[-1.0, -0.7, 0.0, 0.3, 0.99, 1.0] {
+                let mut v = vec![0.0; 13];
+                family.values(t, &mut v, None);
+                for (k, vk) in v.iter().enumerate() {
+                    let want = naive(family, k, t);
+                    assert!((vk - want).abs() <= 1e-12 * want.abs().max(1.0), "{family} k={k} t={t}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn clenshaw_matches_sum() {
+        let d = Domain::new(vec![-2.0], vec![3.0]).unwrap();
+        let c: Vec<f64> = (0..9).map(|k| ((k * 7 % 5) as f64 - 2.0) / (k as f64 + 1.0)).collect();
+        for family in [BasisFamily::Monomial, BasisFamily::Chebyshev, BasisFamily::Legendre] {
+            let b = Basis::new(family, d.clone(), 9).unwrap();
+            for &x in &[-2.0, -1.1, 0.4, 2.9, 3.0] {
+                let mut phi = vec![0.0; 9];
+                b.eval_into(&[x], &mut phi);
+                let sum: f64 = phi.iter().zip(&c).map(|(a, b)| a * b).sum();
+                assert!((b.combine(&c, &[x]) - sum).abs() < 1e-12, "{family} x={x}");
+            }
+        }
+    }
+
+    #[test]
+    fn derivatives_match_finite_differences() {
+        let d = Domain::new(vec![0.0, -1.0], vec![2.0, 5.0]).unwrap();
+        for family in [BasisFamily::Monomial, BasisFamily::Chebyshev, BasisFamily::Legendre] {
+            let b = Basis::new(family, d.clone(), 21).unwrap();
+            let x = [0.7, 2.2];
+            let mut v = vec![0.0; 21];
+            let mut g = vec![vec![0.0; 21]; 2];
+            b.eval_with_gradient(&x, &mut v, &mut g);
+            for k in 0..2 {
+                let h = 1e-6;
+                let mut xp = x;
+                let mut xm = x;
+                xp[k] += h;
+                xm[k] -= h;
+                let (mut vp, mut vm) = (vec![0.0; 21], vec![0.0; 21]);
+                b.eval_into(&xp, &mut vp);
+                b.eval_into(&xm, &mut vm);
+                for j in 0..21 {
+                    let fd = (vp[j] - vm[j]) / (2.0 * h);
+                    assert!((fd - g[k][j]).abs() < 1e-6 * fd.abs().max(1.0), "{family} k={k} j={j}: {fd} vs {}", g[k][j]);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn power_coefficients_reproduce_values() {
+        for family in [BasisFamily::Monomial, BasisFamily::Chebyshev, BasisFamily::Legendre] {
+            let pc = family.power_coefficients(10);
+            let mut v = vec![0.0; 11];
+            family.values(0.37, &mut v, None);
+            for k in 0..=10 {
+                let s: f64 = pc[k].iter().enumerate().map(|(j, c)| c * 0.37f64.powi(j as i32)).sum();
+                assert!((s - v[k]).abs() < 1e-12, "{family} {k}");
+            }
+        }
+    }
+}

@@ -1,0 +1,67 @@
+//! The crate's error type.
+
+/// Bad input, bad settings, or no fit within the allowed budget.
+#[derive(Debug, thiserror::Error, Clone, PartialEq)]
+pub enum FitError {
+    /// A coordinate, bound or value is NaN or infinite.
+    #[error("{what} {index} is not finite ({value})")]
+    NonFinite {
+        /// Which quantity ("point", "lower bound", ...).
+        what: &'static str,
+        /// Sample index.
+        index: usize,
+        /// The offending value.
+        value: f64,
+    },
+    /// A lower bound lies above its upper bound.
+    #[error("sample {index}: lower bound {lo} is above upper bound {hi}")]
+    LowerAboveUpper {
+        /// Sample index.
+        index: usize,
+        /// Lower bound.
+        lo: f64,
+        /// Upper bound.
+        hi: f64,
+    },
+    /// Sizes of points, bounds or coefficients disagree.
+    #[error("dimension mismatch: {0}")]
+    DimensionMismatch(String),
+    /// There are no samples at all.
+    #[error("the data set is empty")]
+    Empty,
+    /// Fewer samples than the smallest coefficient budget.
+    #[error("{samples} samples cannot determine {coeffs} coefficients")]
+    TooFewSamples {
+        /// Samples available.
+        samples: usize,
+        /// Coefficients requested.
+        coeffs: usize,
+    },
+    /// A setting is out of range.
+    #[error("invalid setting `{name}`: {reason}")]
+    InvalidSetting {
+        /// Setting name.
+        name: &'static str,
+        /// Why it was refused.
+        reason: String,
+    },
+    /// No split of any budget up to the maximum was feasible.
+    #[error(
+        "no feasible rational fit with at most {max_coeffs} coefficients \
+         (intervals widened {widenings} times by x{factor}); raise --max-coeffs or widen the intervals"
+    )]
+    NoFeasibleFit {
+        /// Largest budget tried.
+        max_coeffs: usize,
+        /// Widenings tried.
+        widenings: usize,
+        /// Widening factor.
+        factor: f64,
+    },
+    /// The solver layer refused (bad problem, backend not compiled, ...).
+    #[error(transparent)]
+    Backend(#[from] qp_backends::Error),
+    /// A serialised function is malformed.
+    #[error("malformed rational function: {0}")]
+    Malformed(String),
+}

@@ -1,0 +1,288 @@
+//! Solving one split P(n_p, n_q) and the sweep over coefficient budgets.
+
+use crate::poles::{bernstein_margin, bernstein_rows, grid_check, grid_size};
+use crate::problem::{build_problem, condition_number, DesignMatrix, ExtraConstraints, NoExtraConstraints};
+use crate::report::{FitReport, PoleReport, SplitSummary};
+use crate::verify::{error_figures, verify, Verification};
+use crate::{Basis, FitError, FitSettings, IntervalData, PoleControl, Progress, RationalFunction, Selection};
+use qp_backends::{LdpProblem, Status};
+use rayon::prelude::*;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::time::Instant;
+
+/// Dense-grid rounds before a split with poles between samples is rejected.
+const MAX_POLE_ROUNDS: usize = 6;
+
+/// One solved split, accepted or not.
+#[derive(Debug, Clone)]
+pub struct SplitFit {
+    /// Summary figures (status, depth, time, ...).
+    pub summary: SplitSummary,
+    /// The fitted function when accepted.
+    pub function: Option<RationalFunction>,
+    /// Our own check of the function (when a point was produced).
+    pub verification: Option<Verification>,
+    /// Pole figures of the accepted function.
+    pub poles: PoleReport,
+}
+
+/// Everything the splits of a sweep share.
+struct Prepared<'a> {
+    basis: Basis,
+    design: DesignMatrix,
+    data: &'a IntervalData,
+    settings: &'a FitSettings,
+    extra: &'a dyn ExtraConstraints,
+}
+
+impl<'a> Prepared<'a> {
+    fn new(data: &'a IntervalData, settings: &'a FitSettings, extra: &'a dyn ExtraConstraints, len: usize) -> Result<Self, FitError> {
+        let domain = match &settings.domain {
+            Some(d) if d.dim() != data.dim() => {
+                return Err(FitError::DimensionMismatch(format!(
+                    "domain of dimension {} for data of dimension {}",
+                    d.dim(),
+                    data.dim()
+                )))
+            }
+            Some(d) => d.clone(),
+            None => data.bounding_box(),
+        };
+        let basis = Basis::new(settings.family, domain, len)?;
+        let design = DesignMatrix::new(&basis, data);
+        Ok(Self { basis, design, data, settings, extra })
+    }
+
+    /// The rows added to P(n_p, n_q) before any pole rows.
+    fn base_rows(&self, n_p: usize, n_q: usize) -> Vec<Vec<f64>> {
+        let mut rows = self.extra.rows(&self.basis, n_p, n_q);
+        if let PoleControl::Bernstein { elevation } = self.settings.pole_control {
+            for t in bernstein_rows(&self.basis, n_q, elevation) {
+                let mut r = vec![0.0; n_p];
+                r.extend(t);
+                rows.push(r);
+            }
+        }
+        rows
+    }
+
+    /// P(n_p, n_q) on `data` (the prepared points, possibly widened bounds).
+    fn problem(&self, data: &IntervalData, n_p: usize, n_q: usize, rows: &[Vec<f64>]) -> Result<LdpProblem, FitError> {
+        debug_assert_eq!(data.len(), self.data.len());
+        build_problem(&self.design, data, n_p, n_q, rows)
+    }
+
+    fn solve(&self, data: &IntervalData, n_p: usize, n_q: usize, want_condition: bool) -> Result<SplitFit, FitError> {
+        let start = Instant::now();
+        let mut rows = self.base_rows(n_p, n_q);
+        let split_basis = Basis::new(self.basis.family(), self.basis.domain().clone(), n_p.max(n_q))?;
+        let mut summary = SplitSummary {
+            n_p,
+            n_q,
+            status: Status::Infeasible,
+            accepted: false,
+            note: String::new(),
+            depth: 0.0,
+            condition_number: None,
+            seconds: 0.0,
+            iterations: 0,
+            pole_rounds: 0,
+        };
+        let mut poles = PoleReport { control: self.settings.pole_control, grid_min_q: None, certified: None };
+        let mut warm = Vec::new();
+        loop {
+            let problem = self.problem(data, n_p, n_q, &rows)?;
+            let options = self.settings.solve_options.clone().with_warm_start(warm);
+            let sol = self.settings.backend.solve(&problem, &options)?;
+            summary.status = sol.status;
+            summary.iterations += sol.iterations;
+            summary.depth = sol.residuals.depth;
+            if !sol.is_verified() {
+                summary.note = if sol.claims_solved_but_violates() {
+                    format!("backend reported solved; verifier found violation {:.2e}", sol.residuals.max_violation)
+                } else {
+                    sol.status.to_string()
+                };
+                summary.seconds = start.elapsed().as_secs_f64();
+                return Ok(SplitFit { summary, function: None, verification: None, poles });
+            }
+            warm = sol.active_set.clone();
+            let f = RationalFunction::new(split_basis.clone(), sol.x[..n_p].to_vec(), sol.x[n_p..].to_vec())?.normalised();
+            let ver = verify(&f, data, &rows);
+            if !ver.satisfied {
+                summary.note = format!("verification failed at {} (violation {:.2e})", ver.worst, ver.max_violation);
+                summary.seconds = start.elapsed().as_secs_f64();
+                return Ok(SplitFit { summary, function: None, verification: Some(ver), poles });
+            }
+            match self.settings.pole_control {
+                PoleControl::None => {}
+                PoleControl::Bernstein { elevation } => {
+                    let m = bernstein_margin(f.basis(), f.denominator(), elevation);
+                    poles.certified = Some(m > 0.0);
+                    if m <= 0.0 {
+                        summary.note = "Bernstein certificate failed".into();
+                        summary.seconds = start.elapsed().as_secs_f64();
+                        return Ok(SplitFit { summary, function: None, verification: Some(ver), poles });
+                    }
+                }
+                PoleControl::DenseGrid { points_per_dim } => {
+                    let g = grid_size(data.len(), data.dim(), points_per_dim);
+                    let (min, bad) = grid_check(f.basis(), f.denominator(), g, 4 * n_q + 8);
+                    poles.grid_min_q = Some(min / ver.min_q.max(f64::MIN_POSITIVE) * ver.min_q_ratio);
+                    if !bad.is_empty() {
+                        if summary.pole_rounds >= MAX_POLE_ROUNDS {
+                            summary.note = format!("q <= 0 at {} grid points after {MAX_POLE_ROUNDS} rounds", bad.len());
+                            summary.seconds = start.elapsed().as_secs_f64();
+                            return Ok(SplitFit { summary, function: None, verification: Some(ver), poles });
+                        }
+                        summary.pole_rounds += 1;
+                        let mut phi = vec![0.0; split_basis.len()];
+                        for x in bad {
+                            split_basis.eval_into(&x, &mut phi);
+                            let mut r = vec![0.0; n_p];
+                            r.extend_from_slice(&phi[..n_q]);
+                            rows.push(r);
+                        }
+                        continue;
+                    }
+                }
+            }
+            summary.accepted = true;
+            if want_condition {
+                summary.condition_number = Some(condition_number(&problem));
+            }
+            summary.seconds = start.elapsed().as_secs_f64();
+            return Ok(SplitFit { summary, function: Some(f), verification: Some(ver), poles });
+        }
+    }
+}
+
+fn check_sizes(data: &IntervalData, settings: &FitSettings) -> Result<usize, FitError> {
+    if data.len() < settings.min_coeffs {
+        return Err(FitError::TooFewSamples { samples: data.len(), coeffs: settings.min_coeffs });
+    }
+    Ok(settings.max_coeffs.min(data.len()))
+}
+
+/// Solves the single split P(n_p, n_q) (no sweep), with the settings' basis,
+/// backend and pole control.
+///
+/// # Errors
+/// Invalid data or settings, fewer samples than `n_p + n_q`, backend errors.
+pub fn fit_split(data: &IntervalData, n_p: usize, n_q: usize, settings: &FitSettings) -> Result<SplitFit, FitError> {
+    fit_split_with_constraints(data, n_p, n_q, settings, &NoExtraConstraints)
+}
+
+/// As [`fit_split`] with caller-supplied extra constraint rows.
+///
+/// # Errors
+/// As [`fit_split`].
+pub fn fit_split_with_constraints(
+    data: &IntervalData,
+    n_p: usize,
+    n_q: usize,
+    settings: &FitSettings,
+    extra: &dyn ExtraConstraints,
+) -> Result<SplitFit, FitError> {
+    if data.len() < n_p + n_q {
+        return Err(FitError::TooFewSamples { samples: data.len(), coeffs: n_p + n_q });
+    }
+    if n_p == 0 || n_q == 0 {
+        return Err(FitError::InvalidSetting { name: "split", reason: "n_p and n_q must be at least 1".into() });
+    }
+    let prep = Prepared::new(data, settings, extra, n_p.max(n_q))?;
+    prep.solve(data, n_p, n_q, true)
+}
+
+/// The P(n_p, n_q) instance that [`fit_split`] solves first, for
+/// cross-checking with other solvers.
+///
+/// # Errors
+/// As [`fit_split`].
+pub fn split_problem(data: &IntervalData, n_p: usize, n_q: usize, settings: &FitSettings) -> Result<LdpProblem, FitError> {
+    if data.len() < n_p + n_q {
+        return Err(FitError::TooFewSamples { samples: data.len(), coeffs: n_p + n_q });
+    }
+    let prep = Prepared::new(data, settings, &NoExtraConstraints, n_p.max(n_q).max(1))?;
+    let rows = prep.base_rows(n_p, n_q);
+    prep.problem(data, n_p, n_q, &rows)
+}
+
+/// Fits `data` by the sweep: for each budget `N` from the minimum, every
+/// split `(n_p, N - n_p)` in parallel; the first budget with an accepted
+/// split wins and the settings' criterion picks among its splits. If no
+/// budget up to the maximum works, the intervals are widened (if allowed)
+/// and the sweep restarts. The returned fit is verified in f64.
+///
+/// # Errors
+/// Invalid data or settings, too few samples, backend errors, or
+/// [`FitError::NoFeasibleFit`].
+pub fn fit(data: &IntervalData, settings: &FitSettings) -> Result<FitReport, FitError> {
+    fit_with_constraints(data, settings, &NoExtraConstraints)
+}
+
+/// As [`fit`] with caller-supplied extra constraint rows.
+///
+/// # Errors
+/// As [`fit`].
+pub fn fit_with_constraints(data: &IntervalData, settings: &FitSettings, extra: &dyn ExtraConstraints) -> Result<FitReport, FitError> {
+    let start = Instant::now();
+    let max_n = check_sizes(data, settings)?;
+    let prep = Prepared::new(data, settings, extra, (max_n - 1).max(1))?;
+    let want_condition = settings.selection == Selection::ConditionNumber;
+    let mut current = data.clone();
+    let mut summaries = Vec::new();
+    for widenings in 0..=settings.max_widenings {
+        for n in settings.min_coeffs..=max_n {
+            let splits: Vec<(usize, usize)> = (1..n).map(|np| (np, n - np)).collect();
+            let done = AtomicUsize::new(0);
+            let total = splits.len();
+            let fits: Vec<SplitFit> = splits
+                .par_iter()
+                .map(|&(np, nq)| {
+                    let r = prep.solve(&current, np, nq, want_condition);
+                    let k = done.fetch_add(1, Ordering::Relaxed) + 1;
+                    if let Some(cb) = &settings.progress {
+                        cb(Progress { budget: n, done: k, total });
+                    }
+                    r
+                })
+                .collect::<Result<_, _>>()?;
+            summaries.extend(fits.iter().map(|f| f.summary.clone()));
+            let best = fits.into_iter().filter(|f| f.summary.accepted).min_by(|a, b| match settings.selection {
+                Selection::ConditionNumber => {
+                    let ka = a.summary.condition_number.filter(|v| !v.is_nan()).unwrap_or(f64::INFINITY);
+                    let kb = b.summary.condition_number.filter(|v| !v.is_nan()).unwrap_or(f64::INFINITY);
+                    ka.total_cmp(&kb)
+                }
+                Selection::Depth => b.summary.depth.total_cmp(&a.summary.depth),
+            });
+            if let Some(best) = best {
+                let function = best.function.expect("accepted splits carry a function");
+                let errors = error_figures(&function, &current);
+                return Ok(FitReport {
+                    n_p: best.summary.n_p,
+                    n_q: best.summary.n_q,
+                    depth: best.summary.depth,
+                    condition_number: best.summary.condition_number,
+                    errors,
+                    verification: best.verification.expect("accepted splits are verified"),
+                    poles: best.poles,
+                    seconds: start.elapsed().as_secs_f64(),
+                    samples: data.len(),
+                    splits_tried: summaries.len(),
+                    widenings,
+                    interval_scale: settings.widen_factor.powi(widenings as i32),
+                    backend: settings.backend.name().to_string(),
+                    selection: settings.selection,
+                    splits: summaries,
+                    function,
+                });
+            }
+        }
+        if widenings < settings.max_widenings {
+            current = current.widened(settings.widen_factor);
+        }
+    }
+    Err(FitError::NoFeasibleFit { max_coeffs: max_n, widenings: settings.max_widenings, factor: settings.widen_factor })
+}

@@ -1,0 +1,107 @@
+//! What a fit reports: the chosen split, its verified figures and what the
+//! sweep cost.
+
+use crate::verify::{ErrorFigures, Verification};
+use crate::{PoleControl, RationalFunction, Selection};
+use qp_backends::Status;
+use serde::{Deserialize, Serialize};
+use std::fmt;
+
+/// One split of a sweep.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SplitSummary {
+    /// Numerator coefficients.
+    pub n_p: usize,
+    /// Denominator coefficients.
+    pub n_q: usize,
+    /// Backend status of the last solve.
+    pub status: Status,
+    /// Verified and pole-checked.
+    pub accepted: bool,
+    /// Why it was not accepted (empty when accepted).
+    pub note: String,
+    /// Depth of the solution (0 when none).
+    pub depth: f64,
+    /// Condition number of `G` (accepted splits, condition selection only).
+    pub condition_number: Option<f64>,
+    /// Wall time of this split.
+    pub seconds: f64,
+    /// Backend iterations, summed over re-solves.
+    pub iterations: usize,
+    /// Dense-grid re-solves.
+    pub pole_rounds: usize,
+}
+
+/// Pole figures of a fit.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct PoleReport {
+    /// The control in force.
+    pub control: PoleControl,
+    /// Smallest `q` on the dense grid over the largest `|q|` at the samples.
+    pub grid_min_q: Option<f64>,
+    /// Bernstein certificate: `q > 0` on the whole domain box.
+    pub certified: Option<bool>,
+}
+
+/// The result of [`crate::fit`].
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct FitReport {
+    /// The fitted function.
+    pub function: RationalFunction,
+    /// Chosen numerator size.
+    pub n_p: usize,
+    /// Chosen denominator size.
+    pub n_q: usize,
+    /// Depth of the chosen solution.
+    pub depth: f64,
+    /// Condition number of its constraint matrix (condition selection).
+    pub condition_number: Option<f64>,
+    /// Errors against the measured values.
+    pub errors: ErrorFigures,
+    /// Our own f64 check against every constraint.
+    pub verification: Verification,
+    /// Pole figures.
+    pub poles: PoleReport,
+    /// Wall time of the whole sweep.
+    pub seconds: f64,
+    /// Samples fitted.
+    pub samples: usize,
+    /// Splits solved.
+    pub splits_tried: usize,
+    /// Interval widenings applied.
+    pub widenings: usize,
+    /// Factor applied to every half-width (`widen_factor ^ widenings`).
+    pub interval_scale: f64,
+    /// Backend name.
+    pub backend: String,
+    /// Selection criterion.
+    pub selection: Selection,
+    /// Every split solved, in order.
+    pub splits: Vec<SplitSummary>,
+}
+
+impl fmt::Display for FitReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let v = &self.verification;
+        writeln!(f, "rational fit: n_p = {}, n_q = {} ({} coefficients, {} bytes as f32)", self.n_p, self.n_q, self.n_p + self.n_q, self.function.byte_size_f32())?;
+        writeln!(f, "  samples             {}", self.samples)?;
+        writeln!(f, "  verified            {} (max violation {:.2e}, min q/max q {:.3e})", if v.satisfied { "yes" } else { "NO" }, v.max_violation, v.min_q_ratio)?;
+        writeln!(f, "  depth               {:.3e}", self.depth)?;
+        match self.condition_number {
+            Some(k) => writeln!(f, "  condition number    {k:.3e}")?,
+            None => writeln!(f, "  condition number    not computed (selection by depth)")?,
+        }
+        writeln!(f, "  max relative error  {:.4e}", self.errors.max_relative)?;
+        writeln!(f, "  mean relative error {:.4e}", self.errors.mean_relative)?;
+        writeln!(f, "  RMSE                {:.4e}", self.errors.rmse)?;
+        match (self.poles.certified, self.poles.grid_min_q) {
+            (Some(c), _) => writeln!(f, "  poles               Bernstein certificate {}", if c { "holds: q > 0 on the box" } else { "FAILED" })?,
+            (None, Some(g)) => writeln!(f, "  poles               none on the dense grid (min q/max q {g:.3e})")?,
+            _ => writeln!(f, "  poles               not checked between samples")?,
+        }
+        if self.widenings > 0 {
+            writeln!(f, "  intervals widened   {} times (half-widths x{})", self.widenings, self.interval_scale)?;
+        }
+        write!(f, "  splits tried        {} ({} backend), wall time {:.3} s", self.splits_tried, self.backend, self.seconds)
+    }
+}

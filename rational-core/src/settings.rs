@@ -1,0 +1,184 @@
+//! Fit settings: `Default` plus validated `with_*` methods.
+
+use crate::{BasisFamily, Domain, FitError, PoleControl};
+use qp_backends::{Backend, SolveOptions};
+use serde::{Deserialize, Serialize};
+use std::sync::Arc;
+
+/// How the sweep picks among the feasible splits of one budget.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum Selection {
+    /// Lowest 2-norm condition number of the normalised constraint matrix
+    /// `G` (the paper's criterion).
+    #[default]
+    ConditionNumber,
+    /// Largest depth (smallest normalised margin of `G c`, over `||c||`):
+    /// the most robust fit. Skips the condition-number computation.
+    Depth,
+}
+
+impl std::str::FromStr for Selection {
+    type Err = FitError;
+    fn from_str(s: &str) -> Result<Self, FitError> {
+        match s {
+            "condition" | "condition_number" | "cond" => Ok(Self::ConditionNumber),
+            "depth" => Ok(Self::Depth),
+            _ => Err(FitError::InvalidSetting { name: "selection", reason: format!("unknown `{s}` (condition, depth)") }),
+        }
+    }
+}
+
+/// Progress of a sweep: `done` of `total` splits of `budget` coefficients.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Progress {
+    /// Coefficient budget being swept.
+    pub budget: usize,
+    /// Splits finished at this budget.
+    pub done: usize,
+    /// Splits at this budget.
+    pub total: usize,
+}
+
+/// Callback receiving [`Progress`] events.
+pub type ProgressFn = Arc<dyn Fn(Progress) + Send + Sync>;
+
+/// Settings of [`crate::fit`].
+#[derive(Clone)]
+pub struct FitSettings {
+    pub(crate) family: BasisFamily,
+    pub(crate) domain: Option<Domain>,
+    pub(crate) min_coeffs: usize,
+    pub(crate) max_coeffs: usize,
+    pub(crate) selection: Selection,
+    pub(crate) backend: Backend,
+    pub(crate) solve_options: SolveOptions,
+    pub(crate) widen_factor: f64,
+    pub(crate) max_widenings: usize,
+    pub(crate) pole_control: PoleControl,
+    pub(crate) progress: Option<ProgressFn>,
+}
+
+impl std::fmt::Debug for FitSettings {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("FitSettings")
+            .field("family", &self.family)
+            .field("domain", &self.domain)
+            .field("min_coeffs", &self.min_coeffs)
+            .field("max_coeffs", &self.max_coeffs)
+            .field("selection", &self.selection)
+            .field("backend", &self.backend)
+            .field("widen_factor", &self.widen_factor)
+            .field("max_widenings", &self.max_widenings)
+            .field("pole_control", &self.pole_control)
+            .finish_non_exhaustive()
+    }
+}
+
+impl Default for FitSettings {
+    /// Chebyshev basis on the data's bounding box, budgets 2 to 40,
+    /// condition-number selection, native backend, dense-grid pole check,
+    /// no widening.
+    fn default() -> Self {
+        Self {
+            family: BasisFamily::Chebyshev,
+            domain: None,
+            min_coeffs: 2,
+            max_coeffs: 40,
+            selection: Selection::ConditionNumber,
+            backend: Backend::Native,
+            solve_options: SolveOptions::default(),
+            widen_factor: 2.0,
+            max_widenings: 0,
+            pole_control: PoleControl::default(),
+            progress: None,
+        }
+    }
+}
+
+fn invalid(name: &'static str, reason: impl Into<String>) -> FitError {
+    FitError::InvalidSetting { name, reason: reason.into() }
+}
+
+impl FitSettings {
+    /// Basis family.
+    pub fn with_family(mut self, family: BasisFamily) -> Self {
+        self.family = family;
+        self
+    }
+
+    /// Domain box mapped to `[-1, 1]^d` (default: the data's bounding box).
+    pub fn with_domain(mut self, domain: Domain) -> Self {
+        self.domain = Some(domain);
+        self
+    }
+
+    /// Smallest and largest total coefficient budgets `N = n_p + n_q`.
+    ///
+    /// # Errors
+    /// `min < 2` or `min > max`.
+    pub fn with_coeff_range(mut self, min: usize, max: usize) -> Result<Self, FitError> {
+        if min < 2 {
+            return Err(invalid("min_coeffs", "a rational function needs at least 2 coefficients"));
+        }
+        if min > max {
+            return Err(invalid("max_coeffs", format!("{max} is below min_coeffs {min}")));
+        }
+        self.min_coeffs = min;
+        self.max_coeffs = max;
+        Ok(self)
+    }
+
+    /// Selection criterion among feasible splits.
+    pub fn with_selection(mut self, selection: Selection) -> Self {
+        self.selection = selection;
+        self
+    }
+
+    /// Solver backend.
+    ///
+    /// # Errors
+    /// The backend is not compiled into this build.
+    pub fn with_backend(mut self, backend: Backend) -> Result<Self, FitError> {
+        backend.solver()?;
+        self.backend = backend;
+        Ok(self)
+    }
+
+    /// Options passed to the backend.
+    pub fn with_solve_options(mut self, options: SolveOptions) -> Self {
+        self.solve_options = options;
+        self
+    }
+
+    /// When no budget up to the maximum is feasible, multiply every interval's
+    /// half-width by `factor` and sweep again, at most `times` times.
+    ///
+    /// # Errors
+    /// `factor <= 1` or not finite.
+    pub fn with_widening(mut self, factor: f64, times: usize) -> Result<Self, FitError> {
+        if !(factor.is_finite() && factor > 1.0) {
+            return Err(invalid("widen_factor", format!("{factor} must be finite and above 1")));
+        }
+        self.widen_factor = factor;
+        self.max_widenings = times;
+        Ok(self)
+    }
+
+    /// Pole control.
+    pub fn with_pole_control(mut self, pole_control: PoleControl) -> Self {
+        self.pole_control = pole_control;
+        self
+    }
+
+    /// Progress callback (called from worker threads).
+    pub fn with_progress(mut self, f: ProgressFn) -> Self {
+        self.progress = Some(f);
+        self
+    }
+
+    /// The backend in use.
+    pub fn backend(&self) -> Backend {
+        self.backend
+    }
+}
