@@ -1,1 +1,230 @@
-fn main(){}
+//! `ratfit`: fit data with rational functions inside error bounds.
+
+mod csv;
+mod demo;
+mod npy;
+mod progress;
+
+use anyhow::{bail, Context, Result};
+use clap::{Args, Parser, Subcommand};
+use rational_core::{
+    fit, split_problem, Backend, BasisFamily, FitReport, FitSettings, IntervalData, PoleControl, RationalFunction,
+    Selection,
+};
+use std::path::{Path, PathBuf};
+
+#[derive(Parser)]
+#[command(name = "ratfit", version, about = "Rational fits inside interval (error-bound) constraints")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Fit CSV data (x_1..x_d, value; or x_1..x_d, lo, hi with --intervals).
+    FitCsv {
+        #[command(flatten)]
+        data: DataArgs,
+        #[command(flatten)]
+        fit: FitArgs,
+        /// Print the report as JSON instead of a table.
+        #[arg(long)]
+        json: bool,
+        /// Where to write the fit (JSON).
+        #[arg(short = 'o', long = "output")]
+        output: PathBuf,
+    },
+    /// Evaluate a fit at points (CSV, x_1..x_d per row); prints one value per row.
+    Eval {
+        /// A fit written by `fit-csv`.
+        fit: PathBuf,
+        /// Points, one per row.
+        #[arg(long)]
+        points: PathBuf,
+    },
+    /// Write G and h of one P(n_p, n_q) instance as .npy files.
+    DumpQp {
+        #[command(flatten)]
+        data: DataArgs,
+        /// Basis family.
+        #[arg(long, default_value = "chebyshev")]
+        basis: BasisFamily,
+        /// The split, as NP,NQ.
+        #[arg(long)]
+        split: String,
+        /// Output folder.
+        #[arg(long)]
+        out: PathBuf,
+    },
+    /// Fit built-in steep specular-like functions in 1-D and 2-D and print the reports.
+    Demo,
+    /// List the solver backends compiled into this build.
+    Backends,
+}
+
+#[derive(Args)]
+struct DataArgs {
+    /// CSV file.
+    data: PathBuf,
+    /// Number of coordinates (default: columns minus 1, or minus 2 with --intervals).
+    #[arg(long)]
+    dims: Option<usize>,
+    /// Columns after the coordinates are lo, hi instead of a value.
+    #[arg(long)]
+    intervals: bool,
+    /// Relative half-width of the intervals around the values (default 0.01).
+    #[arg(long, conflicts_with = "abs_tol")]
+    rel_tol: Option<f64>,
+    /// Absolute half-width of the intervals around the values.
+    #[arg(long)]
+    abs_tol: Option<f64>,
+}
+
+#[derive(Args)]
+struct FitArgs {
+    /// Basis family: chebyshev, legendre or monomial.
+    #[arg(long, default_value = "chebyshev")]
+    basis: BasisFamily,
+    /// Smallest coefficient budget n_p + n_q.
+    #[arg(long, default_value_t = 2)]
+    min_coeffs: usize,
+    /// Largest coefficient budget n_p + n_q.
+    #[arg(long, default_value_t = 40)]
+    max_coeffs: usize,
+    /// Solver backend (see `ratfit backends`).
+    #[arg(long, default_value = "native")]
+    backend: Backend,
+    /// How to choose among feasible splits: condition or depth.
+    #[arg(long, default_value = "condition")]
+    selection: Selection,
+    /// Poles between samples: none, grid (dense-grid check) or bernstein (certificate).
+    #[arg(long, default_value = "grid")]
+    poles: String,
+    /// Widen the intervals by this factor when nothing is feasible...
+    #[arg(long, default_value_t = 2.0)]
+    widen: f64,
+    /// ...at most this many times.
+    #[arg(long, default_value_t = 0)]
+    max_widenings: usize,
+}
+
+impl FitArgs {
+    fn settings(&self) -> Result<FitSettings> {
+        let poles = match self.poles.as_str() {
+            "none" => PoleControl::None,
+            "grid" => PoleControl::DenseGrid { points_per_dim: 0 },
+            "bernstein" => PoleControl::Bernstein { elevation: 2 },
+            other => bail!("unknown pole control `{other}` (none, grid, bernstein)"),
+        };
+        let mut s = FitSettings::default()
+            .with_family(self.basis)
+            .with_coeff_range(self.min_coeffs, self.max_coeffs)?
+            .with_backend(self.backend)?
+            .with_selection(self.selection)
+            .with_pole_control(poles);
+        if self.max_widenings > 0 {
+            s = s.with_widening(self.widen, self.max_widenings)?;
+        }
+        if let Some(bar) = progress::sweep_bar() {
+            s = s.with_progress(bar);
+        }
+        Ok(s)
+    }
+}
+
+impl DataArgs {
+    fn load(&self) -> Result<IntervalData> {
+        let rows = csv::read_numeric(&self.data)?;
+        let width = rows[0].len();
+        let extra = if self.intervals { 2 } else { 1 };
+        let dims = self.dims.unwrap_or(width.saturating_sub(extra));
+        if dims == 0 || dims + extra != width {
+            bail!(
+                "{}: {width} columns, but {dims} coordinates + {} need {}",
+                self.data.display(),
+                if self.intervals { "lo, hi" } else { "a value" },
+                dims + extra
+            );
+        }
+        let points: Vec<f64> = rows.iter().flat_map(|r| r[..dims].to_vec()).collect();
+        let data = if self.intervals {
+            if self.rel_tol.is_some() || self.abs_tol.is_some() {
+                bail!("--rel-tol/--abs-tol do not apply to --intervals data");
+            }
+            IntervalData::new(dims, points, rows.iter().map(|r| r[dims]).collect(), rows.iter().map(|r| r[dims + 1]).collect())?
+        } else {
+            let values = rows.iter().map(|r| r[dims]).collect();
+            match self.abs_tol {
+                Some(a) => IntervalData::from_values_absolute(dims, points, values, a)?,
+                None => IntervalData::from_values_relative(dims, points, values, self.rel_tol.unwrap_or(0.01))?,
+            }
+        };
+        Ok(data)
+    }
+}
+
+fn load_function(path: &Path) -> Result<RationalFunction> {
+    let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let value: serde_json::Value =
+        serde_json::from_str(&text).with_context(|| format!("{} is not JSON", path.display()))?;
+    let f = value.get("function").cloned().unwrap_or(value);
+    serde_json::from_value(f).with_context(|| format!("{} does not hold a rational function", path.display()))
+}
+
+fn main() -> Result<()> {
+    match Cli::parse().command {
+        Command::FitCsv { data, fit: args, json, output } => {
+            let d = data.load()?;
+            let settings = args.settings()?;
+            let report = fit(&d, &settings);
+            progress::finish();
+            let report: FitReport = report?;
+            if json {
+                println!("{}", serde_json::to_string_pretty(&report)?);
+            } else {
+                println!("{report}");
+            }
+            std::fs::write(&output, serde_json::to_string_pretty(&report)?)
+                .with_context(|| format!("cannot write {}", output.display()))?;
+            eprintln!("wrote {}", output.display());
+        }
+        Command::Eval { fit: path, points } => {
+            let f = load_function(&path)?;
+            let rows = csv::read_numeric(&points)?;
+            if rows[0].len() != f.dim() {
+                bail!("{}: {} columns, the fit takes {} coordinates", points.display(), rows[0].len(), f.dim());
+            }
+            let mut out = String::with_capacity(rows.len() * 24);
+            for r in &rows {
+                out.push_str(&format!("{:e}\n", f.eval(r)));
+            }
+            print!("{out}");
+        }
+        Command::DumpQp { data, basis, split, out } => {
+            let d = data.load()?;
+            let (np, nq) = split
+                .split_once(',')
+                .and_then(|(a, b)| Some((a.trim().parse::<usize>().ok()?, b.trim().parse::<usize>().ok()?)))
+                .with_context(|| format!("--split `{split}` is not NP,NQ"))?;
+            let settings = FitSettings::default().with_family(basis).with_pole_control(PoleControl::None);
+            let p = split_problem(&d, np, nq, &settings)?;
+            std::fs::create_dir_all(&out).with_context(|| format!("cannot create {}", out.display()))?;
+            npy::write_f64(&out.join("G.npy"), &[p.rows(), p.cols()], p.g())?;
+            npy::write_f64(&out.join("h.npy"), &[p.rows()], p.h())?;
+            println!(
+                "wrote {}/G.npy ({} x {}) and h.npy: minimise ||c||^2 s.t. G c >= h, c = (a[0..{np}], b[0..{nq}]), {basis} basis on the data's bounding box",
+                out.display(),
+                p.rows(),
+                p.cols()
+            );
+        }
+        Command::Demo => demo::run()?,
+        Command::Backends => {
+            for b in Backend::ALL {
+                println!("{:<9} {}", b.name(), if b.is_compiled() { "compiled" } else { "not compiled (cargo feature)" });
+            }
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,46 @@
+//! `ratfit demo`: the main job on built-in data with a known truth.
+
+use anyhow::Result;
+use rational_core::{fit, FitSettings, IntervalData};
+use std::f64::consts::PI;
+
+/// Blinn-Phong-like lobe over the half angle (radians), exponent `n`.
+fn lobe(theta_h: f64, n: f64) -> f64 {
+    0.05 / PI + (n + 8.0) / (8.0 * PI) * theta_h.cos().powf(n)
+}
+
+/// Schlick's Fresnel factor over the difference angle.
+fn fresnel(theta_d: f64) -> f64 {
+    0.04 + 0.96 * (1.0 - theta_d.cos()).powi(5)
+}
+
+pub fn run() -> Result<()> {
+    println!("ratfit demo: rational fits of steep specular-like functions, every fit verified in f64\n");
+
+    let n = 2000;
+    let x: Vec<f64> = (0..n).map(|i| 0.5 * PI * i as f64 / (n - 1) as f64).collect();
+    let v: Vec<f64> = x.iter().map(|&t| lobe(t, 300.0)).collect();
+    let data = IntervalData::from_values_relative(1, x, v, 0.05)?;
+    let settings = FitSettings::default().with_coeff_range(2, 30)?;
+    println!("1-D: Blinn-Phong lobe, exponent 300, theta_h in [0, pi/2], {n} samples, intervals +-5%");
+    let report = fit(&data, &settings)?;
+    println!("{report}\n");
+
+    let (nh, nd) = (90, 70);
+    let mut pts = Vec::with_capacity(2 * nh * nd);
+    let mut vals = Vec::with_capacity(nh * nd);
+    for i in 0..nh {
+        for j in 0..nd {
+            // theta_h on the MERL sqrt warp, theta_d up to 78 degrees.
+            let th = 0.5 * PI * (i as f64 / (nh - 1) as f64).powi(2);
+            let td = 78f64.to_radians() * j as f64 / (nd - 1) as f64;
+            pts.extend([th, td]);
+            vals.push(0.05 / PI + (lobe(th, 120.0) - 0.05 / PI) * fresnel(td) / 0.04 * 0.25);
+        }
+    }
+    let data2 = IntervalData::from_values_relative(2, pts, vals, 0.05)?;
+    println!("2-D: lobe(theta_h, exponent 120) x Schlick Fresnel(theta_d), {} samples, intervals +-5%", nh * nd);
+    let report2 = fit(&data2, &FitSettings::default().with_coeff_range(2, 60)?)?;
+    println!("{report2}");
+    Ok(())
+}
