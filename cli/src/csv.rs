@@ -5,7 +5,8 @@ use std::path::Path;
 
 /// Rows of numbers; a first line that does not parse is taken as a header.
 pub fn read_numeric(path: &Path) -> Result<Vec<Vec<f64>>> {
-    let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
     parse_numeric(&text).with_context(|| format!("in {}", path.display()))
 }
 
@@ -27,15 +28,30 @@ pub fn parse_numeric(text: &str) -> Result<Vec<Vec<f64>>> {
                 continue;
             }
             Err(e) => {
-                let col = fields.iter().position(|f| f.parse::<f64>().is_err()).unwrap_or(0);
-                bail!("line {}: column {} `{}` is not a number ({e})", lineno + 1, col + 1, fields[col]);
+                let col = fields
+                    .iter()
+                    .position(|f| f.parse::<f64>().is_err())
+                    .unwrap_or(0);
+                bail!(
+                    "line {}: column {} `{}` is not a number ({e})",
+                    lineno + 1,
+                    col + 1,
+                    fields[col]
+                );
             }
         };
         if let Some(k) = row.iter().position(|v| !v.is_finite()) {
-            bail!("line {}: column {} is not finite ({})", lineno + 1, k + 1, row[k]);
+            bail!(
+                "line {}: column {} is not finite ({})",
+                lineno + 1,
+                k + 1,
+                row[k]
+            );
         }
         match width {
-            Some(w) if w != row.len() => bail!("line {}: {} columns, expected {w}", lineno + 1, row.len()),
+            Some(w) if w != row.len() => {
+                bail!("line {}: {} columns, expected {w}", lineno + 1, row.len())
+            }
             _ => width = Some(row.len()),
         }
         rows.push(row);
@@ -52,9 +68,18 @@ mod tests {
 
     #[test]
     fn header_and_errors() {
-        assert_eq!(parse_numeric("x,v\n1,2\n3,4\n").unwrap(), vec![vec![1.0, 2.0], vec![3.0, 4.0]]);
-        assert!(parse_numeric("1,2\n3\n").unwrap_err().to_string().contains("line 2"));
-        assert!(parse_numeric("1,2\n3,abc\n").unwrap_err().to_string().contains("column 2"));
+        assert_eq!(
+            parse_numeric("x,v\n1,2\n3,4\n").unwrap(),
+            vec![vec![1.0, 2.0], vec![3.0, 4.0]]
+        );
+        assert!(parse_numeric("1,2\n3\n")
+            .unwrap_err()
+            .to_string()
+            .contains("line 2"));
+        assert!(parse_numeric("1,2\n3,abc\n")
+            .unwrap_err()
+            .to_string()
+            .contains("column 2"));
         assert!(parse_numeric("1,NaN\n").is_err());
         assert!(parse_numeric("x,y\n").is_err());
     }

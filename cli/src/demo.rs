@@ -15,14 +15,20 @@ fn fresnel(theta_d: f64) -> f64 {
 }
 
 pub fn run() -> Result<()> {
-    println!("ratfit demo: rational fits of steep specular-like functions, every fit verified in f64\n");
+    println!(
+        "ratfit demo: rational fits of steep specular-like functions, every fit verified in f64\n"
+    );
 
     let n = 2000;
-    let x: Vec<f64> = (0..n).map(|i| 0.5 * PI * i as f64 / (n - 1) as f64).collect();
+    let x: Vec<f64> = (0..n)
+        .map(|i| 0.5 * PI * i as f64 / (n - 1) as f64)
+        .collect();
     let v: Vec<f64> = x.iter().map(|&t| lobe(t, 300.0)).collect();
     let data = IntervalData::from_values_relative(1, x, v, 0.05)?;
     let settings = FitSettings::default().with_coeff_range(2, 30)?;
-    println!("1-D: Blinn-Phong lobe, exponent 300, theta_h in [0, pi/2], {n} samples, intervals +-5%");
+    println!(
+        "1-D: Blinn-Phong lobe, exponent 300, theta_h in [0, pi/2], {n} samples, intervals +-5%"
+    );
     let report = fit(&data, &settings)?;
     println!("{report}\n");
 
@@ -39,7 +45,10 @@ pub fn run() -> Result<()> {
         }
     }
     let data2 = IntervalData::from_values_relative(2, pts, vals, 0.05)?;
-    println!("2-D: lobe(theta_h, exponent 120) x Schlick Fresnel(theta_d), {} samples, intervals +-5%", nh * nd);
+    println!(
+        "2-D: lobe(theta_h, exponent 120) x Schlick Fresnel(theta_d), {} samples, intervals +-5%",
+        nh * nd
+    );
     let report2 = fit(&data2, &FitSettings::default().with_coeff_range(2, 60)?)?;
     println!("{report2}");
     Ok(())

@@ -8,13 +8,17 @@ mod progress;
 use anyhow::{bail, Context, Result};
 use clap::{Args, Parser, Subcommand};
 use rational_core::{
-    fit, split_problem, Backend, BasisFamily, FitReport, FitSettings, IntervalData, PoleControl, RationalFunction,
-    Selection,
+    fit, split_problem, Backend, BasisFamily, FitReport, FitSettings, IntervalData, PoleControl,
+    RationalFunction, Selection,
 };
 use std::path::{Path, PathBuf};
 
 #[derive(Parser)]
-#[command(name = "ratfit", version, about = "Rational fits inside interval (error-bound) constraints")]
+#[command(
+    name = "ratfit",
+    version,
+    about = "Rational fits inside interval (error-bound) constraints"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -152,12 +156,22 @@ impl DataArgs {
             if self.rel_tol.is_some() || self.abs_tol.is_some() {
                 bail!("--rel-tol/--abs-tol do not apply to --intervals data");
             }
-            IntervalData::new(dims, points, rows.iter().map(|r| r[dims]).collect(), rows.iter().map(|r| r[dims + 1]).collect())?
+            IntervalData::new(
+                dims,
+                points,
+                rows.iter().map(|r| r[dims]).collect(),
+                rows.iter().map(|r| r[dims + 1]).collect(),
+            )?
         } else {
             let values = rows.iter().map(|r| r[dims]).collect();
             match self.abs_tol {
                 Some(a) => IntervalData::from_values_absolute(dims, points, values, a)?,
-                None => IntervalData::from_values_relative(dims, points, values, self.rel_tol.unwrap_or(0.01))?,
+                None => IntervalData::from_values_relative(
+                    dims,
+                    points,
+                    values,
+                    self.rel_tol.unwrap_or(0.01),
+                )?,
             }
         };
         Ok(data)
@@ -165,16 +179,23 @@ impl DataArgs {
 }
 
 fn load_function(path: &Path) -> Result<RationalFunction> {
-    let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
     let value: serde_json::Value =
         serde_json::from_str(&text).with_context(|| format!("{} is not JSON", path.display()))?;
     let f = value.get("function").cloned().unwrap_or(value);
-    serde_json::from_value(f).with_context(|| format!("{} does not hold a rational function", path.display()))
+    serde_json::from_value(f)
+        .with_context(|| format!("{} does not hold a rational function", path.display()))
 }
 
 fn main() -> Result<()> {
     match Cli::parse().command {
-        Command::FitCsv { data, fit: args, json, output } => {
+        Command::FitCsv {
+            data,
+            fit: args,
+            json,
+            output,
+        } => {
             let d = data.load()?;
             let settings = args.settings()?;
             let report = fit(&d, &settings);
@@ -193,7 +214,12 @@ fn main() -> Result<()> {
             let f = load_function(&path)?;
             let rows = csv::read_numeric(&points)?;
             if rows[0].len() != f.dim() {
-                bail!("{}: {} columns, the fit takes {} coordinates", points.display(), rows[0].len(), f.dim());
+                bail!(
+                    "{}: {} columns, the fit takes {} coordinates",
+                    points.display(),
+                    rows[0].len(),
+                    f.dim()
+                );
             }
             let mut out = String::with_capacity(rows.len() * 24);
             for r in &rows {
@@ -201,15 +227,28 @@ fn main() -> Result<()> {
             }
             print!("{out}");
         }
-        Command::DumpQp { data, basis, split, out } => {
+        Command::DumpQp {
+            data,
+            basis,
+            split,
+            out,
+        } => {
             let d = data.load()?;
             let (np, nq) = split
                 .split_once(',')
-                .and_then(|(a, b)| Some((a.trim().parse::<usize>().ok()?, b.trim().parse::<usize>().ok()?)))
+                .and_then(|(a, b)| {
+                    Some((
+                        a.trim().parse::<usize>().ok()?,
+                        b.trim().parse::<usize>().ok()?,
+                    ))
+                })
                 .with_context(|| format!("--split `{split}` is not NP,NQ"))?;
-            let settings = FitSettings::default().with_family(basis).with_pole_control(PoleControl::None);
+            let settings = FitSettings::default()
+                .with_family(basis)
+                .with_pole_control(PoleControl::None);
             let p = split_problem(&d, np, nq, &settings)?;
-            std::fs::create_dir_all(&out).with_context(|| format!("cannot create {}", out.display()))?;
+            std::fs::create_dir_all(&out)
+                .with_context(|| format!("cannot create {}", out.display()))?;
             npy::write_f64(&out.join("G.npy"), &[p.rows(), p.cols()], p.g())?;
             npy::write_f64(&out.join("h.npy"), &[p.rows()], p.h())?;
             println!(
@@ -222,7 +261,15 @@ fn main() -> Result<()> {
         Command::Demo => demo::run()?,
         Command::Backends => {
             for b in Backend::ALL {
-                println!("{:<9} {}", b.name(), if b.is_compiled() { "compiled" } else { "not compiled (cargo feature)" });
+                println!(
+                    "{:<9} {}",
+                    b.name(),
+                    if b.is_compiled() {
+                        "compiled"
+                    } else {
+                        "not compiled (cargo feature)"
+                    }
+                );
             }
         }
     }

@@ -6,9 +6,17 @@ use std::path::Path;
 
 /// Writes a C-ordered f64 array of the given shape.
 pub fn write_f64(path: &Path, shape: &[usize], data: &[f64]) -> Result<()> {
-    assert_eq!(shape.iter().product::<usize>(), data.len(), "shape and data disagree");
+    assert_eq!(
+        shape.iter().product::<usize>(),
+        data.len(),
+        "shape and data disagree"
+    );
     let dims: Vec<String> = shape.iter().map(|d| d.to_string()).collect();
-    let shape_txt = if shape.len() == 1 { format!("({},)", dims[0]) } else { format!("({})", dims.join(", ")) };
+    let shape_txt = if shape.len() == 1 {
+        format!("({},)", dims[0])
+    } else {
+        format!("({})", dims.join(", "))
+    };
     let mut header = format!("{{'descr': '<f8', 'fortran_order': False, 'shape': {shape_txt}, }}");
     // Magic (6) + version (2) + length (2) + header + '\n' must be a multiple of 64.
     let total = 10 + header.len() + 1;
@@ -40,7 +48,11 @@ mod tests {
         let hlen = u16::from_le_bytes([bytes[8], bytes[9]]) as usize;
         assert_eq!((10 + hlen) % 64, 0);
         assert_eq!(bytes.len(), 10 + hlen + 48);
-        assert_eq!(f64::from_le_bytes(bytes[10 + hlen..18 + hlen].try_into().unwrap()), 1.0);
+        // Bit-exact: the file must hold exactly the value written.
+        assert_eq!(
+            f64::from_le_bytes(bytes[10 + hlen..18 + hlen].try_into().unwrap()).to_bits(),
+            1.0f64.to_bits()
+        );
         std::fs::remove_dir_all(dir).ok();
     }
 }

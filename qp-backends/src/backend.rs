@@ -5,10 +5,13 @@ use std::str::FromStr;
 
 /// The solvers this crate knows. Only [`Backend::Native`] is always compiled;
 /// the others need the cargo feature of the same name.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, Hash, Default, serde::Serialize, serde::Deserialize,
+)]
 #[serde(rename_all = "snake_case")]
 pub enum Backend {
-    /// Dual active set (Goldfarb-Idnani) with constraint generation.
+    /// Dual active set (Goldfarb-Idnani) with constraint generation (the default).
+    #[default]
     Native,
     /// Clarabel interior point (feature `clarabel`).
     Clarabel,
@@ -20,7 +23,12 @@ pub enum Backend {
 
 impl Backend {
     /// Every backend, compiled or not.
-    pub const ALL: [Backend; 4] = [Backend::Native, Backend::Clarabel, Backend::Osqp, Backend::GoodLp];
+    pub const ALL: [Backend; 4] = [
+        Backend::Native,
+        Backend::Clarabel,
+        Backend::Osqp,
+        Backend::GoodLp,
+    ];
 
     /// The backend's name as accepted by [`FromStr`].
     pub fn name(self) -> &'static str {
@@ -63,7 +71,11 @@ impl Backend {
             #[allow(unreachable_patterns)]
             other => Err(Error::BackendNotCompiled(
                 other.name(),
-                Self::available().iter().map(|b| b.name()).collect::<Vec<_>>().join(", "),
+                Self::available()
+                    .iter()
+                    .map(|b| b.name())
+                    .collect::<Vec<_>>()
+                    .join(", "),
             )),
         }
     }
@@ -74,12 +86,6 @@ impl Backend {
     /// As [`Backend::solver`] and [`LdpSolver::solve`].
     pub fn solve(self, problem: &LdpProblem, options: &SolveOptions) -> Result<Solution, Error> {
         self.solver()?.solve(problem, options)
-    }
-}
-
-impl Default for Backend {
-    fn default() -> Self {
-        Backend::Native
     }
 }
 
@@ -112,7 +118,10 @@ mod tests {
         for b in Backend::ALL {
             assert_eq!(b.name().parse::<Backend>(), Ok(b));
         }
-        assert!(matches!("cplex".parse::<Backend>(), Err(Error::UnknownBackend(_))));
+        assert!(matches!(
+            "cplex".parse::<Backend>(),
+            Err(Error::UnknownBackend(_))
+        ));
     }
 
     #[test]

@@ -112,7 +112,10 @@ impl SolveOptions {
 }
 
 fn invalid(name: &'static str, reason: &str) -> Error {
-    Error::InvalidOption { name, reason: reason.into() }
+    Error::InvalidOption {
+        name,
+        reason: reason.into(),
+    }
 }
 
 #[cfg(test)]
@@ -122,9 +125,15 @@ mod tests {
     #[test]
     fn invalid_values_are_refused() {
         assert!(SolveOptions::default().with_max_iterations(0).is_err());
-        assert!(SolveOptions::default().with_dependency_tolerance(0.0).is_err());
-        assert!(SolveOptions::default().with_dependency_tolerance(f64::NAN).is_err());
+        assert!(SolveOptions::default()
+            .with_dependency_tolerance(0.0)
+            .is_err());
+        assert!(SolveOptions::default()
+            .with_dependency_tolerance(f64::NAN)
+            .is_err());
         assert!(SolveOptions::default().with_generation_batch(0).is_err());
-        assert!(SolveOptions::default().with_dependency_tolerance(1e-12).is_ok());
+        assert!(SolveOptions::default()
+            .with_dependency_tolerance(1e-12)
+            .is_ok());
     }
 }

@@ -111,6 +111,34 @@ pub(crate) fn norm(v: &[f64]) -> f64 {
     scale * v.iter().map(|x| (x * inv) * (x * inv)).sum::<f64>().sqrt()
 }
 
+/// `out = A x` for a row-major `A` (`out.len()` rows, `x.len()` columns),
+/// through faer's runtime-dispatched SIMD kernels.
+pub(crate) fn matvec(a: &[f64], x: &[f64], out: &mut [f64]) {
+    let (m, n) = (out.len(), x.len());
+    debug_assert_eq!(a.len(), m * n);
+    if m == 0 {
+        return;
+    }
+    let lhs = faer::MatRef::from_row_major_slice(a, m, n);
+    let rhs = faer::MatRef::from_column_major_slice(x, n, 1);
+    let dst = faer::MatMut::from_column_major_slice_mut(out, m, 1);
+    faer::linalg::matmul::matmul(dst, faer::Accum::Replace, lhs, rhs, 1.0, faer::Par::Seq);
+}
+
+/// `out = A x` for a column-major `A` (`out.len()` rows, `x.len()` columns).
+pub(crate) fn matvec_col_major(a: &[f64], x: &[f64], out: &mut [f64]) {
+    let (m, n) = (out.len(), x.len());
+    debug_assert_eq!(a.len(), m * n);
+    if n == 0 {
+        out.iter_mut().for_each(|v| *v = 0.0);
+        return;
+    }
+    let lhs = faer::MatRef::from_column_major_slice(a, m, n);
+    let rhs = faer::MatRef::from_column_major_slice(x, n, 1);
+    let dst = faer::MatMut::from_column_major_slice_mut(out, m, 1);
+    faer::linalg::matmul::matmul(dst, faer::Accum::Replace, lhs, rhs, 1.0, faer::Par::Seq);
+}
+
 /// Dot product.
 #[inline]
 pub(crate) fn dot(a: &[f64], b: &[f64]) -> f64 {

@@ -132,9 +132,20 @@ impl Solution {
         active_set: Vec<usize>,
         backend: &'static str,
     ) -> Self {
-        let x = if x.len() == problem.cols() { x } else { vec![0.0; problem.cols()] };
+        let x = if x.len() == problem.cols() {
+            x
+        } else {
+            vec![0.0; problem.cols()]
+        };
         let residuals = Residuals::measure(problem, &x);
-        Self { status, x, residuals, iterations, active_set, backend }
+        Self {
+            status,
+            x,
+            residuals,
+            iterations,
+            active_set,
+            backend,
+        }
     }
 
     /// `true` when the backend reported success *and* our own check confirms

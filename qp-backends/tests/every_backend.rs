@@ -26,9 +26,14 @@ fn optimum_accuracy(b: Backend, n: usize, cond: f64) -> Option<f64> {
 fn check_infeasible(name: &str, p: &LdpProblem) {
     for b in Backend::available() {
         let s = solve(b, p);
-        assert!(!s.is_verified(), "{name}/{b}: verified point on an infeasible problem");
+        assert!(
+            !s.is_verified(),
+            "{name}/{b}: verified point on an infeasible problem"
+        );
         if b == Backend::Osqp && s.status == Status::IterationLimit {
-            eprintln!("{name}/{b}: stopped at the iteration limit instead of detecting infeasibility");
+            eprintln!(
+                "{name}/{b}: stopped at the iteration limit instead of detecting infeasibility"
+            );
             continue;
         }
         assert_eq!(s.status, Status::Infeasible, "{name}/{b}");
@@ -36,11 +41,17 @@ fn check_infeasible(name: &str, p: &LdpProblem) {
 }
 
 fn solve(b: Backend, p: &LdpProblem) -> Solution {
-    b.solve(p, &SolveOptions::default()).unwrap_or_else(|e| panic!("{b}: {e}"))
+    b.solve(p, &SolveOptions::default())
+        .unwrap_or_else(|e| panic!("{b}: {e}"))
 }
 
 fn rel_err(x: &[f64], want: &[f64]) -> f64 {
-    let d: f64 = x.iter().zip(want).map(|(a, b)| (a - b) * (a - b)).sum::<f64>().sqrt();
+    let d: f64 = x
+        .iter()
+        .zip(want)
+        .map(|(a, b)| (a - b) * (a - b))
+        .sum::<f64>()
+        .sqrt();
     let n: f64 = want.iter().map(|a| a * a).sum::<f64>().sqrt();
     d / n.max(f64::MIN_POSITIVE)
 }
@@ -51,23 +62,45 @@ fn check_known_optimum(name: &str, p: &LdpProblem, want: &[f64], cond: f64) {
         let s = solve(b, p);
         let claimed = matches!(s.status, Status::Solved | Status::Inaccurate);
         if b == Backend::Native {
-            assert!(s.is_verified(), "{name}/{b}: {:?} {:?}", s.status, s.residuals);
+            assert!(
+                s.is_verified(),
+                "{name}/{b}: {:?} {:?}",
+                s.status,
+                s.residuals
+            );
         }
         if s.claims_solved_but_violates() {
             // The verifier caught a bad point: acceptable only for ADMM.
-            assert_eq!(b, Backend::Osqp, "{name}/{b}: solved but violates {:?}", s.residuals);
-            eprintln!("{name}/{b}: reported solved, verifier found violation {:.3e}", s.residuals.max_violation);
+            assert_eq!(
+                b,
+                Backend::Osqp,
+                "{name}/{b}: solved but violates {:?}",
+                s.residuals
+            );
+            eprintln!(
+                "{name}/{b}: reported solved, verifier found violation {:.3e}",
+                s.residuals.max_violation
+            );
             continue;
         }
         if !claimed {
-            assert_ne!(b, Backend::Native, "{name}: native failed with {:?}", s.status);
+            assert_ne!(
+                b,
+                Backend::Native,
+                "{name}: native failed with {:?}",
+                s.status
+            );
             eprintln!("{name}/{b}: gave up with status {}", s.status);
             continue;
         }
         match optimum_accuracy(b, p.cols(), cond) {
             Some(tol) if s.is_verified() => {
                 let e = rel_err(&s.x, want);
-                assert!(e <= tol, "{name}/{b}: relative error {e:.3e} > {tol:.0e}, x = {:?}", s.x);
+                assert!(
+                    e <= tol,
+                    "{name}/{b}: relative error {e:.3e} > {tol:.0e}, x = {:?}",
+                    s.x
+                );
             }
             _ => assert!(s.is_verified(), "{name}/{b}: {:?}", s.residuals),
         }
@@ -84,7 +117,11 @@ fn axis_bounds() {
 fn single_halfspace_with_inactive_rows() {
     // x1 + x2 >= 2 gives (1, 1); x1 >= -5 and x2 >= -3 stay inactive.
     let p = LdpProblem::from_rows(
-        &[vec![1.0, 1.0, 0.0], vec![1.0, 0.0, 0.0], vec![0.0, 1.0, 0.0]],
+        &[
+            vec![1.0, 1.0, 0.0],
+            vec![1.0, 0.0, 0.0],
+            vec![0.0, 1.0, 0.0],
+        ],
         vec![2.0, -5.0, -3.0],
     )
     .unwrap();
@@ -100,14 +137,22 @@ fn constraint_that_must_be_dropped() {
 
 #[test]
 fn infeasible_pair_is_detected() {
-    let p = LdpProblem::from_rows(&[vec![1.0, 0.0], vec![-1.0, 0.0], vec![0.0, 1.0]], vec![1.0, 1.0, 0.0]).unwrap();
+    let p = LdpProblem::from_rows(
+        &[vec![1.0, 0.0], vec![-1.0, 0.0], vec![0.0, 1.0]],
+        vec![1.0, 1.0, 0.0],
+    )
+    .unwrap();
     check_infeasible("pair", &p);
 }
 
 #[test]
 fn infeasible_cycle_is_detected() {
     // x1 >= 1, x2 >= 1, -x1 - x2 >= -1: infeasible, but every pair is feasible.
-    let p = LdpProblem::from_rows(&[vec![1.0, 0.0], vec![0.0, 1.0], vec![-1.0, -1.0]], vec![1.0, 1.0, -1.0]).unwrap();
+    let p = LdpProblem::from_rows(
+        &[vec![1.0, 0.0], vec![0.0, 1.0], vec![-1.0, -1.0]],
+        vec![1.0, 1.0, -1.0],
+    )
+    .unwrap();
     check_infeasible("cycle", &p);
 }
 
@@ -119,7 +164,13 @@ fn zero_row_with_positive_h_is_infeasible() {
 
 #[test]
 fn duplicate_rows() {
-    let rows = vec![vec![1.0, 0.0], vec![1.0, 0.0], vec![0.0, 1.0], vec![1.0, 0.0], vec![0.0, 1.0]];
+    let rows = vec![
+        vec![1.0, 0.0],
+        vec![1.0, 0.0],
+        vec![0.0, 1.0],
+        vec![1.0, 0.0],
+        vec![0.0, 1.0],
+    ];
     let p = LdpProblem::from_rows(&rows, vec![1.0, 1.0, 2.0, 1.0, 2.0]).unwrap();
     check_known_optimum("duplicates", &p, &[1.0, 2.0], 1.0);
 }
@@ -165,7 +216,12 @@ fn thin_cone(n: usize, d: f64) -> (LdpProblem, Vec<f64>) {
     let mut rows = Vec::new();
     for b in &basis {
         for sign in [1.0, -1.0] {
-            rows.push(axis.iter().zip(b).map(|(a, w)| d * a + sign * s * w).collect());
+            rows.push(
+                axis.iter()
+                    .zip(b)
+                    .map(|(a, w)| d * a + sign * s * w)
+                    .collect(),
+            );
         }
     }
     let h = vec![1.0; rows.len()];
@@ -179,10 +235,23 @@ fn tiny_margins_down_to_1e_minus_9() {
         for n in [2, 6, 22] {
             let (p, want) = thin_cone(n, d);
             let s = solve(Backend::Native, &p);
-            assert!(s.is_verified(), "d={d:e} n={n}: {:?} {:?}", s.status, s.residuals);
+            assert!(
+                s.is_verified(),
+                "d={d:e} n={n}: {:?} {:?}",
+                s.status,
+                s.residuals
+            );
             // Exact: the slack ratio is 1 to rounding and the depth is d.
-            assert!((s.residuals.min_slack_ratio - 1.0).abs() < 1e-6, "d={d:e} n={n}: {:?}", s.residuals);
-            assert!((s.residuals.depth / d - 1.0).abs() < 1e-6, "d={d:e} n={n}: {:?}", s.residuals);
+            assert!(
+                (s.residuals.min_slack_ratio - 1.0).abs() < 1e-6,
+                "d={d:e} n={n}: {:?}",
+                s.residuals
+            );
+            assert!(
+                (s.residuals.depth / d - 1.0).abs() < 1e-6,
+                "d={d:e} n={n}: {:?}",
+                s.residuals
+            );
             assert!(rel_err(&s.x, &want) < 1e-6, "d={d:e} n={n}");
             assert!(s.active_set.len() <= n);
         }
@@ -199,23 +268,37 @@ fn constraint_generation_matches_full_solve() {
         let t = i as f64 * 0.618_033_988_75;
         let z = 0.5 + 0.5 * ((i as f64 + 0.5) / 40_000.0);
         let r = (1.0 - z * z).sqrt();
-        rows.push(vec![r * (t * 6.283).cos(), r * (t * 6.283).sin(), z]);
+        rows.push(vec![
+            r * (t * std::f64::consts::TAU).cos(),
+            r * (t * std::f64::consts::TAU).sin(),
+            z,
+        ]);
     }
     let h = vec![1.0; rows.len()];
     let p = LdpProblem::from_rows(&rows, h).unwrap();
     let full = Backend::Native
-        .solve(&p, &SolveOptions::default().with_working_set_threshold(usize::MAX))
+        .solve(
+            &p,
+            &SolveOptions::default().with_working_set_threshold(usize::MAX),
+        )
         .unwrap();
     let gen = Backend::Native
         .solve(&p, &SolveOptions::default().with_working_set_threshold(100))
         .unwrap();
     assert!(full.is_verified() && gen.is_verified());
-    assert!(rel_err(&gen.x, &full.x) < 1e-10, "{:?} vs {:?}", gen.x, full.x);
+    assert!(
+        rel_err(&gen.x, &full.x) < 1e-10,
+        "{:?} vs {:?}",
+        gen.x,
+        full.x
+    );
     // Warm start from the active set reproduces it.
     let warm = Backend::Native
         .solve(
             &p,
-            &SolveOptions::default().with_working_set_threshold(100).with_warm_start(gen.active_set.clone()),
+            &SolveOptions::default()
+                .with_working_set_threshold(100)
+                .with_warm_start(gen.active_set.clone()),
         )
         .unwrap();
     assert!(rel_err(&warm.x, &full.x) < 1e-10);

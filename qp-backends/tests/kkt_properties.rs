@@ -13,13 +13,17 @@ fn kkt_multipliers(p: &LdpProblem, active: &[usize], x: &[f64]) -> (Vec<f64>, f6
     let mut b = vec![0.0; q];
     for i in 0..q {
         for j in 0..q {
-            a[i * q + j] = (0..n).map(|k| p.row(active[i])[k] * p.row(active[j])[k]).sum();
+            a[i * q + j] = (0..n)
+                .map(|k| p.row(active[i])[k] * p.row(active[j])[k])
+                .sum();
         }
         b[i] = (0..n).map(|k| p.row(active[i])[k] * x[k]).sum();
     }
     // Gaussian elimination with partial pivoting.
     for c in 0..q {
-        let piv = (c..q).max_by(|&i, &j| a[i * q + c].abs().total_cmp(&a[j * q + c].abs())).unwrap();
+        let piv = (c..q)
+            .max_by(|&i, &j| a[i * q + c].abs().total_cmp(&a[j * q + c].abs()))
+            .unwrap();
         for k in 0..q {
             a.swap(c * q + k, piv * q + k);
         }

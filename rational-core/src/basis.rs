@@ -134,7 +134,11 @@ impl Domain {
         }
         for (k, (&a, &b)) in lower.iter().zip(&upper).enumerate() {
             if !a.is_finite() || !b.is_finite() {
-                return Err(FitError::NonFinite { what: "domain corner of coordinate", index: k, value: if a.is_finite() { b } else { a } });
+                return Err(FitError::NonFinite {
+                    what: "domain corner of coordinate",
+                    index: k,
+                    value: if a.is_finite() { b } else { a },
+                });
             }
             if a > b {
                 return Err(FitError::InvalidSetting {
@@ -187,7 +191,13 @@ pub fn graded_indices(dim: usize, len: usize) -> Vec<Vec<u16>> {
     out
 }
 
-fn push_degree(dim: usize, remaining: u16, prefix: &mut Vec<u16>, out: &mut Vec<Vec<u16>>, len: usize) {
+fn push_degree(
+    dim: usize,
+    remaining: u16,
+    prefix: &mut Vec<u16>,
+    out: &mut Vec<Vec<u16>>,
+    len: usize,
+) {
     if out.len() >= len {
         return;
     }
@@ -224,7 +234,11 @@ struct BasisSpec {
 
 impl From<Basis> for BasisSpec {
     fn from(b: Basis) -> Self {
-        Self { family: b.family, len: b.len(), domain: b.domain }
+        Self {
+            family: b.family,
+            len: b.len(),
+            domain: b.domain,
+        }
     }
 }
 
@@ -243,16 +257,27 @@ impl Basis {
     /// `len == 0` or degrees beyond 1000.
     pub fn new(family: BasisFamily, domain: Domain, len: usize) -> Result<Self, FitError> {
         if len == 0 {
-            return Err(FitError::InvalidSetting { name: "basis length", reason: "must be at least 1".into() });
+            return Err(FitError::InvalidSetting {
+                name: "basis length",
+                reason: "must be at least 1".into(),
+            });
         }
         if domain.dim() == 1 && len > 1000 {
-            return Err(FitError::InvalidSetting { name: "basis length", reason: "degree above 1000".into() });
+            return Err(FitError::InvalidSetting {
+                name: "basis length",
+                reason: "degree above 1000".into(),
+            });
         }
         let indices = graded_indices(domain.dim(), len);
         let max_degree = (0..domain.dim())
             .map(|k| indices.iter().map(|i| i[k] as usize).max().unwrap_or(0))
             .collect();
-        Ok(Self { family, domain, indices, max_degree })
+        Ok(Self {
+            family,
+            domain,
+            indices,
+            max_degree,
+        })
     }
 
     /// Number of functions.
@@ -281,13 +306,17 @@ impl Basis {
     }
 
     /// Multi-index of function `j`.
-    pub fn index(&self, j: usize) -> &[u16] {
+    pub fn multi_index(&self, j: usize) -> &[u16] {
         &self.indices[j]
     }
 
     /// Largest exponent of coordinate `k` among the first `n` functions.
     pub fn degree_in(&self, k: usize, n: usize) -> usize {
-        self.indices[..n].iter().map(|i| i[k] as usize).max().unwrap_or(0)
+        self.indices[..n]
+            .iter()
+            .map(|i| i[k] as usize)
+            .max()
+            .unwrap_or(0)
     }
 
     /// Values of the first `out.len()` functions at `x` (original coordinates).
@@ -431,19 +460,36 @@ mod tests {
     #[test]
     fn graded_order_in_two_variables() {
         let idx = graded_indices(2, 6);
-        assert_eq!(idx, vec![vec![0, 0], vec![1, 0], vec![0, 1], vec![2, 0], vec![1, 1], vec![0, 2]]);
+        assert_eq!(
+            idx,
+            vec![
+                vec![0, 0],
+                vec![1, 0],
+                vec![0, 1],
+                vec![2, 0],
+                vec![1, 1],
+                vec![0, 2]
+            ]
+        );
         assert_eq!(graded_indices(3, 10).len(), 10);
     }
 
     #[test]
     fn values_match_closed_forms() {
-        for family in [BasisFamily::Monomial, BasisFamily::Chebyshev, BasisFamily::Legendre] {
+        for family in [
+            BasisFamily::Monomial,
+            BasisFamily::Chebyshev,
+            BasisFamily::Legendre,
+        ] {
             for &t in &[-1.0, -0.7, 0.0, 0.3, 0.99, 1.0] {
                 let mut v = vec![0.0; 13];
                 family.values(t, &mut v, None);
                 for (k, vk) in v.iter().enumerate() {
                     let want = naive(family, k, t);
-                    assert!((vk - want).abs() <= 1e-12 * want.abs().max(1.0), "{family} k={k} t={t}");
+                    assert!(
+                        (vk - want).abs() <= 1e-12 * want.abs().max(1.0),
+                        "{family} k={k} t={t}"
+                    );
                 }
             }
         }
@@ -452,8 +498,14 @@ mod tests {
     #[test]
     fn clenshaw_matches_sum() {
         let d = Domain::new(vec![-2.0], vec![3.0]).unwrap();
-        let c: Vec<f64> = (0..9).map(|k| ((k * 7 % 5) as f64 - 2.0) / (k as f64 + 1.0)).collect();
-        for family in [BasisFamily::Monomial, BasisFamily::Chebyshev, BasisFamily::Legendre] {
+        let c: Vec<f64> = (0..9)
+            .map(|k| ((k * 7 % 5) as f64 - 2.0) / (k as f64 + 1.0))
+            .collect();
+        for family in [
+            BasisFamily::Monomial,
+            BasisFamily::Chebyshev,
+            BasisFamily::Legendre,
+        ] {
             let b = Basis::new(family, d.clone(), 9).unwrap();
             for &x in &[-2.0, -1.1, 0.4, 2.9, 3.0] {
                 let mut phi = vec![0.0; 9];
@@ -467,7 +519,11 @@ mod tests {
     #[test]
     fn derivatives_match_finite_differences() {
         let d = Domain::new(vec![0.0, -1.0], vec![2.0, 5.0]).unwrap();
-        for family in [BasisFamily::Monomial, BasisFamily::Chebyshev, BasisFamily::Legendre] {
+        for family in [
+            BasisFamily::Monomial,
+            BasisFamily::Chebyshev,
+            BasisFamily::Legendre,
+        ] {
             let b = Basis::new(family, d.clone(), 21).unwrap();
             let x = [0.7, 2.2];
             let mut v = vec![0.0; 21];
@@ -484,7 +540,11 @@ mod tests {
                 b.eval_into(&xm, &mut vm);
                 for j in 0..21 {
                     let fd = (vp[j] - vm[j]) / (2.0 * h);
-                    assert!((fd - g[k][j]).abs() < 1e-6 * fd.abs().max(1.0), "{family} k={k} j={j}: {fd} vs {}", g[k][j]);
+                    assert!(
+                        (fd - g[k][j]).abs() < 1e-6 * fd.abs().max(1.0),
+                        "{family} k={k} j={j}: {fd} vs {}",
+                        g[k][j]
+                    );
                 }
             }
         }
@@ -492,12 +552,20 @@ mod tests {
 
     #[test]
     fn power_coefficients_reproduce_values() {
-        for family in [BasisFamily::Monomial, BasisFamily::Chebyshev, BasisFamily::Legendre] {
+        for family in [
+            BasisFamily::Monomial,
+            BasisFamily::Chebyshev,
+            BasisFamily::Legendre,
+        ] {
             let pc = family.power_coefficients(10);
             let mut v = vec![0.0; 11];
             family.values(0.37, &mut v, None);
             for k in 0..=10 {
-                let s: f64 = pc[k].iter().enumerate().map(|(j, c)| c * 0.37f64.powi(j as i32)).sum();
+                let s: f64 = pc[k]
+                    .iter()
+                    .enumerate()
+                    .map(|(j, c)| c * 0.37f64.powi(j as i32))
+                    .sum();
                 assert!((s - v[k]).abs() < 1e-12, "{family} {k}");
             }
         }

@@ -19,7 +19,13 @@ impl IntervalData {
     /// # Errors
     /// Empty data, size mismatch, NaN or infinite entries, `lo > hi`.
     pub fn new(dim: usize, points: Vec<f64>, lo: Vec<f64>, hi: Vec<f64>) -> Result<Self, FitError> {
-        let d = Self { dim, points, lo, hi, values: None };
+        let d = Self {
+            dim,
+            points,
+            lo,
+            hi,
+            values: None,
+        };
         d.validate()?;
         Ok(d)
     }
@@ -28,7 +34,12 @@ impl IntervalData {
     ///
     /// # Errors
     /// As [`IntervalData::new`], plus a negative or non-finite `t`.
-    pub fn from_values_relative(dim: usize, points: Vec<f64>, values: Vec<f64>, t: f64) -> Result<Self, FitError> {
+    pub fn from_values_relative(
+        dim: usize,
+        points: Vec<f64>,
+        values: Vec<f64>,
+        t: f64,
+    ) -> Result<Self, FitError> {
         check_tolerance("relative tolerance", t)?;
         Self::from_values_with(dim, points, values, |v| t * v.abs())
     }
@@ -37,25 +48,47 @@ impl IntervalData {
     ///
     /// # Errors
     /// As [`IntervalData::new`], plus a negative or non-finite `a`.
-    pub fn from_values_absolute(dim: usize, points: Vec<f64>, values: Vec<f64>, a: f64) -> Result<Self, FitError> {
+    pub fn from_values_absolute(
+        dim: usize,
+        points: Vec<f64>,
+        values: Vec<f64>,
+        a: f64,
+    ) -> Result<Self, FitError> {
         check_tolerance("absolute tolerance", a)?;
         Self::from_values_with(dim, points, values, |_| a)
     }
 
-    fn from_values_with(dim: usize, points: Vec<f64>, values: Vec<f64>, half: impl Fn(f64) -> f64) -> Result<Self, FitError> {
+    fn from_values_with(
+        dim: usize,
+        points: Vec<f64>,
+        values: Vec<f64>,
+        half: impl Fn(f64) -> f64,
+    ) -> Result<Self, FitError> {
         if let Some(i) = values.iter().position(|v| !v.is_finite()) {
-            return Err(FitError::NonFinite { what: "value of sample", index: i, value: values[i] });
+            return Err(FitError::NonFinite {
+                what: "value of sample",
+                index: i,
+                value: values[i],
+            });
         }
         let lo = values.iter().map(|&v| v - half(v)).collect();
         let hi = values.iter().map(|&v| v + half(v)).collect();
-        let d = Self { dim, points, lo, hi, values: Some(values) };
+        let d = Self {
+            dim,
+            points,
+            lo,
+            hi,
+            values: Some(values),
+        };
         d.validate()?;
         Ok(d)
     }
 
     fn validate(&self) -> Result<(), FitError> {
         if self.dim == 0 {
-            return Err(FitError::DimensionMismatch("points need at least one coordinate".into()));
+            return Err(FitError::DimensionMismatch(
+                "points need at least one coordinate".into(),
+            ));
         }
         if self.lo.is_empty() {
             return Err(FitError::Empty);
@@ -72,22 +105,41 @@ impl IntervalData {
             )));
         }
         if let Some(k) = self.points.iter().position(|v| !v.is_finite()) {
-            return Err(FitError::NonFinite { what: "coordinate of sample", index: k / self.dim, value: self.points[k] });
+            return Err(FitError::NonFinite {
+                what: "coordinate of sample",
+                index: k / self.dim,
+                value: self.points[k],
+            });
         }
         for i in 0..n {
             if !self.lo[i].is_finite() {
-                return Err(FitError::NonFinite { what: "lower bound of sample", index: i, value: self.lo[i] });
+                return Err(FitError::NonFinite {
+                    what: "lower bound of sample",
+                    index: i,
+                    value: self.lo[i],
+                });
             }
             if !self.hi[i].is_finite() {
-                return Err(FitError::NonFinite { what: "upper bound of sample", index: i, value: self.hi[i] });
+                return Err(FitError::NonFinite {
+                    what: "upper bound of sample",
+                    index: i,
+                    value: self.hi[i],
+                });
             }
             if self.lo[i] > self.hi[i] {
-                return Err(FitError::LowerAboveUpper { index: i, lo: self.lo[i], hi: self.hi[i] });
+                return Err(FitError::LowerAboveUpper {
+                    index: i,
+                    lo: self.lo[i],
+                    hi: self.hi[i],
+                });
             }
         }
         if let Some(v) = &self.values {
             if v.len() != n {
-                return Err(FitError::DimensionMismatch(format!("{} values for {n} samples", v.len())));
+                return Err(FitError::DimensionMismatch(format!(
+                    "{} values for {n} samples",
+                    v.len()
+                )));
             }
         }
         Ok(())
@@ -99,7 +151,11 @@ impl IntervalData {
     /// Wrong length or non-finite values.
     pub fn with_values(mut self, values: Vec<f64>) -> Result<Self, FitError> {
         if let Some(i) = values.iter().position(|v| !v.is_finite()) {
-            return Err(FitError::NonFinite { what: "value of sample", index: i, value: values[i] });
+            return Err(FitError::NonFinite {
+                what: "value of sample",
+                index: i,
+                value: values[i],
+            });
         }
         self.values = Some(values);
         self.validate()?;
@@ -181,7 +237,11 @@ impl IntervalData {
     ///
     /// # Errors
     /// Length mismatch, non-finite base or weight, or no sample left.
-    pub fn with_known_part(&self, base: &[f64], weight: &[f64]) -> Result<(Self, Vec<usize>), FitError> {
+    pub fn with_known_part(
+        &self,
+        base: &[f64],
+        weight: &[f64],
+    ) -> Result<(Self, Vec<usize>), FitError> {
         let n = self.len();
         if base.len() != n || weight.len() != n {
             return Err(FitError::DimensionMismatch(format!(
@@ -194,7 +254,11 @@ impl IntervalData {
         let (mut pts, mut lo, mut hi, mut vals) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
         for i in 0..n {
             if !base[i].is_finite() || !weight[i].is_finite() {
-                return Err(FitError::NonFinite { what: "known part at sample", index: i, value: base[i] + weight[i] });
+                return Err(FitError::NonFinite {
+                    what: "known part at sample",
+                    index: i,
+                    value: base[i] + weight[i],
+                });
             }
             if weight[i] == 0.0 {
                 continue;
@@ -210,7 +274,13 @@ impl IntervalData {
         if kept.is_empty() {
             return Err(FitError::Empty);
         }
-        let d = Self { dim: self.dim, points: pts, lo, hi, values: Some(vals) };
+        let d = Self {
+            dim: self.dim,
+            points: pts,
+            lo,
+            hi,
+            values: Some(vals),
+        };
         d.validate()?;
         Ok((d, kept))
     }
@@ -218,7 +288,10 @@ impl IntervalData {
 
 fn check_tolerance(name: &'static str, t: f64) -> Result<(), FitError> {
     if !(t.is_finite() && t >= 0.0) {
-        return Err(FitError::InvalidSetting { name, reason: format!("{t} is not a finite non-negative number") });
+        return Err(FitError::InvalidSetting {
+            name,
+            reason: format!("{t} is not a finite non-negative number"),
+        });
     }
     Ok(())
 }
@@ -237,16 +310,32 @@ mod tests {
             IntervalData::new(1, vec![f64::NAN], vec![0.0], vec![1.0]),
             Err(FitError::NonFinite { .. })
         ));
-        assert!(matches!(IntervalData::new(2, vec![0.0], vec![0.0], vec![1.0]), Err(FitError::DimensionMismatch(_))));
-        assert!(matches!(IntervalData::new(1, vec![], vec![], vec![]), Err(FitError::Empty)));
+        assert!(matches!(
+            IntervalData::new(2, vec![0.0], vec![0.0], vec![1.0]),
+            Err(FitError::DimensionMismatch(_))
+        ));
+        assert!(matches!(
+            IntervalData::new(1, vec![], vec![], vec![]),
+            Err(FitError::Empty)
+        ));
         assert!(IntervalData::from_values_relative(1, vec![0.0], vec![1.0], -0.1).is_err());
-        assert!(IntervalData::from_values_relative(1, vec![0.0], vec![f64::INFINITY], 0.1).is_err());
+        assert!(
+            IntervalData::from_values_relative(1, vec![0.0], vec![f64::INFINITY], 0.1).is_err()
+        );
     }
 
     #[test]
     fn known_part_transforms_and_drops_zero_weights() {
-        let d = IntervalData::new(1, vec![0.0, 1.0, 2.0], vec![1.0, 2.0, 3.0], vec![2.0, 4.0, 5.0]).unwrap();
-        let (t, kept) = d.with_known_part(&[1.0, 0.0, 1.0], &[2.0, 0.0, -1.0]).unwrap();
+        let d = IntervalData::new(
+            1,
+            vec![0.0, 1.0, 2.0],
+            vec![1.0, 2.0, 3.0],
+            vec![2.0, 4.0, 5.0],
+        )
+        .unwrap();
+        let (t, kept) = d
+            .with_known_part(&[1.0, 0.0, 1.0], &[2.0, 0.0, -1.0])
+            .unwrap();
         assert_eq!(kept, vec![0, 2]);
         assert_eq!(t.lo(), &[0.0, -4.0]);
         assert_eq!(t.hi(), &[0.5, -2.0]);

@@ -1,10 +1,14 @@
 //! Solving one split P(n_p, n_q) and the sweep over coefficient budgets.
 
 use crate::poles::{bernstein_margin, bernstein_rows, grid_check, grid_size};
-use crate::problem::{build_problem, condition_number, DesignMatrix, ExtraConstraints, NoExtraConstraints};
+use crate::problem::{
+    build_problem, condition_number, DesignMatrix, ExtraConstraints, NoExtraConstraints,
+};
 use crate::report::{FitReport, PoleReport, SplitSummary};
 use crate::verify::{error_figures, verify, Verification};
-use crate::{Basis, FitError, FitSettings, IntervalData, PoleControl, Progress, RationalFunction, Selection};
+use crate::{
+    Basis, FitError, FitSettings, IntervalData, PoleControl, Progress, RationalFunction, Selection,
+};
 use qp_backends::{LdpProblem, Status};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -36,7 +40,12 @@ struct Prepared<'a> {
 }
 
 impl<'a> Prepared<'a> {
-    fn new(data: &'a IntervalData, settings: &'a FitSettings, extra: &'a dyn ExtraConstraints, len: usize) -> Result<Self, FitError> {
+    fn new(
+        data: &'a IntervalData,
+        settings: &'a FitSettings,
+        extra: &'a dyn ExtraConstraints,
+        len: usize,
+    ) -> Result<Self, FitError> {
         let domain = match &settings.domain {
             Some(d) if d.dim() != data.dim() => {
                 return Err(FitError::DimensionMismatch(format!(
@@ -50,7 +59,13 @@ impl<'a> Prepared<'a> {
         };
         let basis = Basis::new(settings.family, domain, len)?;
         let design = DesignMatrix::new(&basis, data);
-        Ok(Self { basis, design, data, settings, extra })
+        Ok(Self {
+            basis,
+            design,
+            data,
+            settings,
+            extra,
+        })
     }
 
     /// The rows added to P(n_p, n_q) before any pole rows.
@@ -67,15 +82,31 @@ impl<'a> Prepared<'a> {
     }
 
     /// P(n_p, n_q) on `data` (the prepared points, possibly widened bounds).
-    fn problem(&self, data: &IntervalData, n_p: usize, n_q: usize, rows: &[Vec<f64>]) -> Result<LdpProblem, FitError> {
+    fn problem(
+        &self,
+        data: &IntervalData,
+        n_p: usize,
+        n_q: usize,
+        rows: &[Vec<f64>],
+    ) -> Result<LdpProblem, FitError> {
         debug_assert_eq!(data.len(), self.data.len());
         build_problem(&self.design, data, n_p, n_q, rows)
     }
 
-    fn solve(&self, data: &IntervalData, n_p: usize, n_q: usize, want_condition: bool) -> Result<SplitFit, FitError> {
+    fn solve(
+        &self,
+        data: &IntervalData,
+        n_p: usize,
+        n_q: usize,
+        want_condition: bool,
+    ) -> Result<SplitFit, FitError> {
         let start = Instant::now();
         let mut rows = self.base_rows(n_p, n_q);
-        let split_basis = Basis::new(self.basis.family(), self.basis.domain().clone(), n_p.max(n_q))?;
+        let split_basis = Basis::new(
+            self.basis.family(),
+            self.basis.domain().clone(),
+            n_p.max(n_q),
+        )?;
         let mut summary = SplitSummary {
             n_p,
             n_q,
@@ -88,7 +119,11 @@ impl<'a> Prepared<'a> {
             iterations: 0,
             pole_rounds: 0,
         };
-        let mut poles = PoleReport { control: self.settings.pole_control, grid_min_q: None, certified: None };
+        let mut poles = PoleReport {
+            control: self.settings.pole_control,
+            grid_min_q: None,
+            certified: None,
+        };
         let mut warm = Vec::new();
         loop {
             let problem = self.problem(data, n_p, n_q, &rows)?;
@@ -97,22 +132,49 @@ impl<'a> Prepared<'a> {
             summary.status = sol.status;
             summary.iterations += sol.iterations;
             summary.depth = sol.residuals.depth;
-            if !sol.is_verified() {
-                summary.note = if sol.claims_solved_but_violates() {
-                    format!("backend reported solved; verifier found violation {:.2e}", sol.residuals.max_violation)
+            // P(n_p, n_q) is homogeneous: any point with every row strictly
+            // positive (depth > 0) is a valid fit after rescaling, even if a
+            // backend stopped at G c >= 1 - 1e-9 instead of G c >= 1.
+            let usable = matches!(sol.status, Status::Solved | Status::Inaccurate)
+                && sol.residuals.depth > 0.0
+                && sol.x.iter().all(|v| v.is_finite());
+            if !usable {
+                summary.note = if matches!(sol.status, Status::Solved | Status::Inaccurate) {
+                    format!(
+                        "backend reported solved; verifier found violation {:.2e}",
+                        sol.residuals.max_violation
+                    )
                 } else {
                     sol.status.to_string()
                 };
                 summary.seconds = start.elapsed().as_secs_f64();
-                return Ok(SplitFit { summary, function: None, verification: None, poles });
+                return Ok(SplitFit {
+                    summary,
+                    function: None,
+                    verification: None,
+                    poles,
+                });
             }
             warm = sol.active_set.clone();
-            let f = RationalFunction::new(split_basis.clone(), sol.x[..n_p].to_vec(), sol.x[n_p..].to_vec())?.normalised();
+            let f = RationalFunction::new(
+                split_basis.clone(),
+                sol.x[..n_p].to_vec(),
+                sol.x[n_p..].to_vec(),
+            )?
+            .normalised();
             let ver = verify(&f, data, &rows);
             if !ver.satisfied {
-                summary.note = format!("verification failed at {} (violation {:.2e})", ver.worst, ver.max_violation);
+                summary.note = format!(
+                    "verification failed at {} (violation {:.2e})",
+                    ver.worst, ver.max_violation
+                );
                 summary.seconds = start.elapsed().as_secs_f64();
-                return Ok(SplitFit { summary, function: None, verification: Some(ver), poles });
+                return Ok(SplitFit {
+                    summary,
+                    function: None,
+                    verification: Some(ver),
+                    poles,
+                });
             }
             match self.settings.pole_control {
                 PoleControl::None => {}
@@ -122,18 +184,32 @@ impl<'a> Prepared<'a> {
                     if m <= 0.0 {
                         summary.note = "Bernstein certificate failed".into();
                         summary.seconds = start.elapsed().as_secs_f64();
-                        return Ok(SplitFit { summary, function: None, verification: Some(ver), poles });
+                        return Ok(SplitFit {
+                            summary,
+                            function: None,
+                            verification: Some(ver),
+                            poles,
+                        });
                     }
                 }
                 PoleControl::DenseGrid { points_per_dim } => {
                     let g = grid_size(data.len(), data.dim(), points_per_dim);
                     let (min, bad) = grid_check(f.basis(), f.denominator(), g, 4 * n_q + 8);
-                    poles.grid_min_q = Some(min / ver.min_q.max(f64::MIN_POSITIVE) * ver.min_q_ratio);
+                    poles.grid_min_q =
+                        Some(min / ver.min_q.max(f64::MIN_POSITIVE) * ver.min_q_ratio);
                     if !bad.is_empty() {
                         if summary.pole_rounds >= MAX_POLE_ROUNDS {
-                            summary.note = format!("q <= 0 at {} grid points after {MAX_POLE_ROUNDS} rounds", bad.len());
+                            summary.note = format!(
+                                "q <= 0 at {} grid points after {MAX_POLE_ROUNDS} rounds",
+                                bad.len()
+                            );
                             summary.seconds = start.elapsed().as_secs_f64();
-                            return Ok(SplitFit { summary, function: None, verification: Some(ver), poles });
+                            return Ok(SplitFit {
+                                summary,
+                                function: None,
+                                verification: Some(ver),
+                                poles,
+                            });
                         }
                         summary.pole_rounds += 1;
                         let mut phi = vec![0.0; split_basis.len()];
@@ -152,14 +228,22 @@ impl<'a> Prepared<'a> {
                 summary.condition_number = Some(condition_number(&problem));
             }
             summary.seconds = start.elapsed().as_secs_f64();
-            return Ok(SplitFit { summary, function: Some(f), verification: Some(ver), poles });
+            return Ok(SplitFit {
+                summary,
+                function: Some(f),
+                verification: Some(ver),
+                poles,
+            });
         }
     }
 }
 
 fn check_sizes(data: &IntervalData, settings: &FitSettings) -> Result<usize, FitError> {
     if data.len() < settings.min_coeffs {
-        return Err(FitError::TooFewSamples { samples: data.len(), coeffs: settings.min_coeffs });
+        return Err(FitError::TooFewSamples {
+            samples: data.len(),
+            coeffs: settings.min_coeffs,
+        });
     }
     Ok(settings.max_coeffs.min(data.len()))
 }
@@ -169,7 +253,12 @@ fn check_sizes(data: &IntervalData, settings: &FitSettings) -> Result<usize, Fit
 ///
 /// # Errors
 /// Invalid data or settings, fewer samples than `n_p + n_q`, backend errors.
-pub fn fit_split(data: &IntervalData, n_p: usize, n_q: usize, settings: &FitSettings) -> Result<SplitFit, FitError> {
+pub fn fit_split(
+    data: &IntervalData,
+    n_p: usize,
+    n_q: usize,
+    settings: &FitSettings,
+) -> Result<SplitFit, FitError> {
     fit_split_with_constraints(data, n_p, n_q, settings, &NoExtraConstraints)
 }
 
@@ -185,10 +274,16 @@ pub fn fit_split_with_constraints(
     extra: &dyn ExtraConstraints,
 ) -> Result<SplitFit, FitError> {
     if data.len() < n_p + n_q {
-        return Err(FitError::TooFewSamples { samples: data.len(), coeffs: n_p + n_q });
+        return Err(FitError::TooFewSamples {
+            samples: data.len(),
+            coeffs: n_p + n_q,
+        });
     }
     if n_p == 0 || n_q == 0 {
-        return Err(FitError::InvalidSetting { name: "split", reason: "n_p and n_q must be at least 1".into() });
+        return Err(FitError::InvalidSetting {
+            name: "split",
+            reason: "n_p and n_q must be at least 1".into(),
+        });
     }
     let prep = Prepared::new(data, settings, extra, n_p.max(n_q))?;
     prep.solve(data, n_p, n_q, true)
@@ -199,9 +294,17 @@ pub fn fit_split_with_constraints(
 ///
 /// # Errors
 /// As [`fit_split`].
-pub fn split_problem(data: &IntervalData, n_p: usize, n_q: usize, settings: &FitSettings) -> Result<LdpProblem, FitError> {
+pub fn split_problem(
+    data: &IntervalData,
+    n_p: usize,
+    n_q: usize,
+    settings: &FitSettings,
+) -> Result<LdpProblem, FitError> {
     if data.len() < n_p + n_q {
-        return Err(FitError::TooFewSamples { samples: data.len(), coeffs: n_p + n_q });
+        return Err(FitError::TooFewSamples {
+            samples: data.len(),
+            coeffs: n_p + n_q,
+        });
     }
     let prep = Prepared::new(data, settings, &NoExtraConstraints, n_p.max(n_q).max(1))?;
     let rows = prep.base_rows(n_p, n_q);
@@ -225,7 +328,11 @@ pub fn fit(data: &IntervalData, settings: &FitSettings) -> Result<FitReport, Fit
 ///
 /// # Errors
 /// As [`fit`].
-pub fn fit_with_constraints(data: &IntervalData, settings: &FitSettings, extra: &dyn ExtraConstraints) -> Result<FitReport, FitError> {
+pub fn fit_with_constraints(
+    data: &IntervalData,
+    settings: &FitSettings,
+    extra: &dyn ExtraConstraints,
+) -> Result<FitReport, FitError> {
     let start = Instant::now();
     let max_n = check_sizes(data, settings)?;
     let prep = Prepared::new(data, settings, extra, (max_n - 1).max(1))?;
@@ -243,20 +350,35 @@ pub fn fit_with_constraints(data: &IntervalData, settings: &FitSettings, extra: 
                     let r = prep.solve(&current, np, nq, want_condition);
                     let k = done.fetch_add(1, Ordering::Relaxed) + 1;
                     if let Some(cb) = &settings.progress {
-                        cb(Progress { budget: n, done: k, total });
+                        cb(Progress {
+                            budget: n,
+                            done: k,
+                            total,
+                        });
                     }
                     r
                 })
                 .collect::<Result<_, _>>()?;
             summaries.extend(fits.iter().map(|f| f.summary.clone()));
-            let best = fits.into_iter().filter(|f| f.summary.accepted).min_by(|a, b| match settings.selection {
-                Selection::ConditionNumber => {
-                    let ka = a.summary.condition_number.filter(|v| !v.is_nan()).unwrap_or(f64::INFINITY);
-                    let kb = b.summary.condition_number.filter(|v| !v.is_nan()).unwrap_or(f64::INFINITY);
-                    ka.total_cmp(&kb)
-                }
-                Selection::Depth => b.summary.depth.total_cmp(&a.summary.depth),
-            });
+            let best =
+                fits.into_iter()
+                    .filter(|f| f.summary.accepted)
+                    .min_by(|a, b| match settings.selection {
+                        Selection::ConditionNumber => {
+                            let ka = a
+                                .summary
+                                .condition_number
+                                .filter(|v| !v.is_nan())
+                                .unwrap_or(f64::INFINITY);
+                            let kb = b
+                                .summary
+                                .condition_number
+                                .filter(|v| !v.is_nan())
+                                .unwrap_or(f64::INFINITY);
+                            ka.total_cmp(&kb)
+                        }
+                        Selection::Depth => b.summary.depth.total_cmp(&a.summary.depth),
+                    });
             if let Some(best) = best {
                 let function = best.function.expect("accepted splits carry a function");
                 let errors = error_figures(&function, &current);
@@ -284,5 +406,9 @@ pub fn fit_with_constraints(data: &IntervalData, settings: &FitSettings, extra: 
             current = current.widened(settings.widen_factor);
         }
     }
-    Err(FitError::NoFeasibleFit { max_coeffs: max_n, widenings: settings.max_widenings, factor: settings.widen_factor })
+    Err(FitError::NoFeasibleFit {
+        max_coeffs: max_n,
+        widenings: settings.max_widenings,
+        factor: settings.widen_factor,
+    })
 }

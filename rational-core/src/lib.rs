@@ -42,9 +42,13 @@ pub mod verify;
 pub use basis::{graded_indices, Basis, BasisFamily, Domain};
 pub use data::IntervalData;
 pub use error::FitError;
-pub use fit::{fit, fit_split, fit_split_with_constraints, fit_with_constraints, split_problem, SplitFit};
+pub use fit::{
+    fit, fit_split, fit_split_with_constraints, fit_with_constraints, split_problem, SplitFit,
+};
 pub use poles::PoleControl;
-pub use problem::{build_problem, condition_number, DesignMatrix, ExtraConstraints, NoExtraConstraints};
+pub use problem::{
+    build_problem, condition_number, DesignMatrix, ExtraConstraints, NoExtraConstraints,
+};
 pub use qp_backends::{Backend, SolveOptions, Status};
 pub use rational::RationalFunction;
 pub use report::{FitReport, PoleReport, SplitSummary};

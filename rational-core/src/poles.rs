@@ -60,7 +60,13 @@ fn univariate_bernstein(basis: &Basis, deg: usize, m: usize) -> Vec<Vec<f64>> {
                 }
             }
             // t-power to Bernstein: b_i = sum_{j<=i} C(i,j)/C(m,j) a_j.
-            (0..=m).map(|i| (0..=i).map(|j| binomial(i, j) / binomial(m, j) * tc[j]).sum()).collect()
+            (0..=m)
+                .map(|i| {
+                    (0..=i)
+                        .map(|j| binomial(i, j) / binomial(m, j) * tc[j])
+                        .sum()
+                })
+                .collect()
         })
         .collect()
 }
@@ -71,15 +77,19 @@ pub fn bernstein_rows(basis: &Basis, n_q: usize, elevation: usize) -> Vec<Vec<f6
     let d = basis.dim();
     let degs: Vec<usize> = (0..d).map(|k| basis.degree_in(k, n_q)).collect();
     let ms: Vec<usize> = degs.iter().map(|&g| g + elevation).collect();
-    let tables: Vec<Vec<Vec<f64>>> = (0..d).map(|k| univariate_bernstein(basis, degs[k], ms[k])).collect();
+    let tables: Vec<Vec<Vec<f64>>> = (0..d)
+        .map(|k| univariate_bernstein(basis, degs[k], ms[k]))
+        .collect();
     let total: usize = ms.iter().map(|m| m + 1).product();
     let mut rows = Vec::with_capacity(total);
     let mut beta = vec![0usize; d];
     for _ in 0..total {
         let row = (0..n_q)
             .map(|j| {
-                let idx = basis.index(j);
-                (0..d).map(|k| tables[k][idx[k] as usize][beta[k]]).product()
+                let idx = basis.multi_index(j);
+                (0..d)
+                    .map(|k| tables[k][idx[k] as usize][beta[k]])
+                    .product()
             })
             .collect();
         rows.push(row);
@@ -98,7 +108,10 @@ pub fn bernstein_rows(basis: &Basis, n_q: usize, elevation: usize) -> Vec<Vec<f6
 /// positive means `q > 0` on the whole box (a certificate).
 pub fn bernstein_margin(basis: &Basis, b: &[f64], elevation: usize) -> f64 {
     let rows = bernstein_rows(basis, b.len(), elevation);
-    let coef: Vec<f64> = rows.iter().map(|r| r.iter().zip(b).map(|(x, y)| x * y).sum()).collect();
+    let coef: Vec<f64> = rows
+        .iter()
+        .map(|r| r.iter().zip(b).map(|(x, y)| x * y).sum())
+        .collect();
     let max = coef.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
     let min = coef.iter().cloned().fold(f64::INFINITY, f64::min);
     if max > 0.0 {
@@ -154,7 +167,9 @@ pub fn grid_check(basis: &Basis, b: &[f64], per_dim: usize, keep: usize) -> (f64
         .take(keep)
         .map(|(_, id)| {
             let t = point(id);
-            (0..d).map(|k| dom.lower[k] + 0.5 * (t[k] + 1.0) * (dom.upper[k] - dom.lower[k])).collect()
+            (0..d)
+                .map(|k| dom.lower[k] + 0.5 * (t[k] + 1.0) * (dom.upper[k] - dom.lower[k]))
+                .collect()
         })
         .collect();
     (min, pts)
@@ -167,12 +182,19 @@ mod tests {
 
     #[test]
     fn bernstein_coefficients_reproduce_the_polynomial() {
-        for family in [BasisFamily::Monomial, BasisFamily::Chebyshev, BasisFamily::Legendre] {
+        for family in [
+            BasisFamily::Monomial,
+            BasisFamily::Chebyshev,
+            BasisFamily::Legendre,
+        ] {
             let dom = Domain::new(vec![0.0, -2.0], vec![1.0, 2.0]).unwrap();
             let basis = Basis::new(family, dom, 10).unwrap();
             let b: Vec<f64> = (0..10).map(|k| 1.0 / (k as f64 + 1.0) - 0.2).collect();
             let rows = bernstein_rows(&basis, 10, 1);
-            let coef: Vec<f64> = rows.iter().map(|r| r.iter().zip(&b).map(|(x, y)| x * y).sum()).collect();
+            let coef: Vec<f64> = rows
+                .iter()
+                .map(|r| r.iter().zip(&b).map(|(x, y)| x * y).sum())
+                .collect();
             // Evaluate the tensor Bernstein form at a point and compare.
             let (u, v): (f64, f64) = (0.3, 0.8); // in [0, 1]
             let ms = [basis.degree_in(0, 10) + 1, basis.degree_in(1, 10) + 1];
@@ -180,8 +202,10 @@ mod tests {
             let mut k = 0;
             for j in 0..=ms[1] {
                 for i in 0..=ms[0] {
-                    let bu = binomial(ms[0], i) * u.powi(i as i32) * (1.0 - u).powi((ms[0] - i) as i32);
-                    let bv = binomial(ms[1], j) * v.powi(j as i32) * (1.0 - v).powi((ms[1] - j) as i32);
+                    let bu =
+                        binomial(ms[0], i) * u.powi(i as i32) * (1.0 - u).powi((ms[0] - i) as i32);
+                    let bv =
+                        binomial(ms[1], j) * v.powi(j as i32) * (1.0 - v).powi((ms[1] - j) as i32);
                     s += coef[k] * bu * bv;
                     k += 1;
                 }

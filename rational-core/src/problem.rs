@@ -18,7 +18,10 @@ impl DesignMatrix {
     pub fn new(basis: &Basis, data: &IntervalData) -> Self {
         let cols = basis.len();
         let mut values = vec![0.0; data.len() * cols];
-        values.par_chunks_mut(cols).enumerate().for_each(|(i, row)| basis.eval_into(data.point(i), row));
+        values
+            .par_chunks_mut(cols)
+            .enumerate()
+            .for_each(|(i, row)| basis.eval_into(data.point(i), row));
         Self { cols, values }
     }
 
@@ -68,29 +71,38 @@ pub fn build_problem(
     if n_p == 0 || n_q == 0 || n_p.max(n_q) > design.cols() {
         return Err(FitError::InvalidSetting {
             name: "split",
-            reason: format!("({n_p}, {n_q}) needs 1..={} coefficients in each part", design.cols()),
+            reason: format!(
+                "({n_p}, {n_q}) needs 1..={} coefficients in each part",
+                design.cols()
+            ),
         });
     }
     if let Some(r) = extra.iter().find(|r| r.len() != n) {
-        return Err(FitError::DimensionMismatch(format!("extra row of length {} for {n} coefficients", r.len())));
+        return Err(FitError::DimensionMismatch(format!(
+            "extra row of length {} for {n} coefficients",
+            r.len()
+        )));
     }
     let s = data.len();
     let mut g = vec![0.0; (2 * s + extra.len()) * n];
-    g[..2 * s * n].par_chunks_mut(2 * n).enumerate().for_each(|(i, pair)| {
-        let phi = design.row(i);
-        let (lo, hi) = (data.lo()[i], data.hi()[i]);
-        let (r1, r2) = pair.split_at_mut(n);
-        for k in 0..n_p {
-            r1[k] = phi[k];
-            r2[k] = -phi[k];
-        }
-        for k in 0..n_q {
-            r1[n_p + k] = -lo * phi[k];
-            r2[n_p + k] = hi * phi[k];
-        }
-        normalise(r1);
-        normalise(r2);
-    });
+    g[..2 * s * n]
+        .par_chunks_mut(2 * n)
+        .enumerate()
+        .for_each(|(i, pair)| {
+            let phi = design.row(i);
+            let (lo, hi) = (data.lo()[i], data.hi()[i]);
+            let (r1, r2) = pair.split_at_mut(n);
+            for k in 0..n_p {
+                r1[k] = phi[k];
+                r2[k] = -phi[k];
+            }
+            for k in 0..n_q {
+                r1[n_p + k] = -lo * phi[k];
+                r2[n_p + k] = hi * phi[k];
+            }
+            normalise(r1);
+            normalise(r2);
+        });
     for (j, row) in extra.iter().enumerate() {
         let dst = &mut g[(2 * s + j) * n..(2 * s + j + 1) * n];
         dst.copy_from_slice(row);
@@ -104,7 +116,12 @@ fn normalise(row: &mut [f64]) {
     let scale = row.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
     if scale > 0.0 {
         let inv = 1.0 / scale;
-        let nrm = scale * row.iter().map(|v| (v * inv) * (v * inv)).sum::<f64>().sqrt();
+        let nrm = scale
+            * row
+                .iter()
+                .map(|v| (v * inv) * (v * inv))
+                .sum::<f64>()
+                .sqrt();
         row.iter_mut().for_each(|v| *v /= nrm);
     }
 }
@@ -140,8 +157,19 @@ mod tests {
 
     #[test]
     fn rows_are_unit_and_encode_the_interval() {
-        let data = IntervalData::new(1, vec![0.0, 0.5, 1.0], vec![1.0, 2.0, 3.0], vec![1.5, 2.5, 3.5]).unwrap();
-        let basis = Basis::new(BasisFamily::Chebyshev, Domain::new(vec![0.0], vec![1.0]).unwrap(), 3).unwrap();
+        let data = IntervalData::new(
+            1,
+            vec![0.0, 0.5, 1.0],
+            vec![1.0, 2.0, 3.0],
+            vec![1.5, 2.5, 3.5],
+        )
+        .unwrap();
+        let basis = Basis::new(
+            BasisFamily::Chebyshev,
+            Domain::new(vec![0.0], vec![1.0]).unwrap(),
+            3,
+        )
+        .unwrap();
         let design = DesignMatrix::new(&basis, &data);
         let p = build_problem(&design, &data, 2, 1, &[]).unwrap();
         assert_eq!(p.rows(), 6);
@@ -159,7 +187,11 @@ mod tests {
 
     #[test]
     fn condition_number_of_orthogonal_rows_is_one() {
-        let p = LdpProblem::from_rows(&[vec![1.0, 0.0], vec![0.0, 1.0], vec![-1.0, 0.0]], vec![1.0; 3]).unwrap();
+        let p = LdpProblem::from_rows(
+            &[vec![1.0, 0.0], vec![0.0, 1.0], vec![-1.0, 0.0]],
+            vec![1.0; 3],
+        )
+        .unwrap();
         let k = condition_number(&p);
         assert!((k - 2f64.sqrt()).abs() < 1e-12, "{k}");
     }

@@ -34,7 +34,9 @@ impl RationalFunction {
     /// Empty or too long coefficient vectors, non-finite coefficients.
     pub fn new(basis: Basis, numerator: Vec<f64>, denominator: Vec<f64>) -> Result<Self, FitError> {
         if numerator.is_empty() || denominator.is_empty() {
-            return Err(FitError::Malformed("numerator and denominator need at least one coefficient".into()));
+            return Err(FitError::Malformed(
+                "numerator and denominator need at least one coefficient".into(),
+            ));
         }
         if numerator.len().max(denominator.len()) > basis.len() {
             return Err(FitError::Malformed(format!(
@@ -47,7 +49,11 @@ impl RationalFunction {
         if numerator.iter().chain(&denominator).any(|c| !c.is_finite()) {
             return Err(FitError::Malformed("non-finite coefficient".into()));
         }
-        Ok(Self { basis, numerator, denominator })
+        Ok(Self {
+            basis,
+            numerator,
+            denominator,
+        })
     }
 
     /// The basis.
@@ -78,7 +84,10 @@ impl RationalFunction {
     /// `(p(x), q(x))`.
     pub fn eval_parts(&self, x: &[f64]) -> (f64, f64) {
         if self.dim() == 1 {
-            return (self.basis.combine(&self.numerator, x), self.basis.combine(&self.denominator, x));
+            return (
+                self.basis.combine(&self.numerator, x),
+                self.basis.combine(&self.denominator, x),
+            );
         }
         let n = self.basis.len();
         let mut phi = vec![0.0; n];
@@ -97,7 +106,10 @@ impl RationalFunction {
     /// `r` at many points (row-major, `dim` per point), in parallel.
     pub fn eval_many(&self, points: &[f64]) -> Vec<f64> {
         use rayon::prelude::*;
-        points.par_chunks(self.dim()).map(|x| self.eval(x)).collect()
+        points
+            .par_chunks(self.dim())
+            .map(|x| self.eval(x))
+            .collect()
     }
 
     /// Gradient of `r` at `x`: `(p' q - p q') / q^2`.
@@ -128,7 +140,13 @@ impl RationalFunction {
     /// Scales both coefficient vectors together so that `||(a, b)|| = 1`
     /// (the function is unchanged).
     pub(crate) fn normalised(mut self) -> Self {
-        let n = self.numerator.iter().chain(&self.denominator).map(|v| v * v).sum::<f64>().sqrt();
+        let n = self
+            .numerator
+            .iter()
+            .chain(&self.denominator)
+            .map(|v| v * v)
+            .sum::<f64>()
+            .sqrt();
         if n > 0.0 && n.is_finite() {
             self.numerator.iter_mut().for_each(|v| *v /= n);
             self.denominator.iter_mut().for_each(|v| *v /= n);
@@ -159,7 +177,12 @@ mod tests {
     fn json_round_trip_is_exact() {
         let d = Domain::new(vec![-0.3, 1.0], vec![2.0, 7.5]).unwrap();
         let b = Basis::new(BasisFamily::Chebyshev, d, 6).unwrap();
-        let r = RationalFunction::new(b, vec![0.1, 1.0 / 3.0, -2e-300, 5.0], vec![1.0, 0.2, std::f64::consts::PI]).unwrap();
+        let r = RationalFunction::new(
+            b,
+            vec![0.1, 1.0 / 3.0, -2e-300, 5.0],
+            vec![1.0, 0.2, std::f64::consts::PI],
+        )
+        .unwrap();
         let back = RationalFunction::from_json(&r.to_json()).unwrap();
         assert_eq!(r, back);
     }
@@ -178,7 +201,12 @@ mod tests {
     fn gradient_matches_finite_differences() {
         let d = Domain::new(vec![0.0, 0.0], vec![1.0, 2.0]).unwrap();
         let b = Basis::new(BasisFamily::Legendre, d, 6).unwrap();
-        let r = RationalFunction::new(b, vec![0.3, 1.0, -0.5, 0.2], vec![2.0, 0.1, 0.3, 0.05, 0.1, 0.0]).unwrap();
+        let r = RationalFunction::new(
+            b,
+            vec![0.3, 1.0, -0.5, 0.2],
+            vec![2.0, 0.1, 0.3, 0.05, 0.1, 0.0],
+        )
+        .unwrap();
         let x = [0.4, 1.3];
         let g = r.gradient(&x);
         for k in 0..2 {

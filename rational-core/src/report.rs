@@ -83,9 +83,22 @@ pub struct FitReport {
 impl fmt::Display for FitReport {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let v = &self.verification;
-        writeln!(f, "rational fit: n_p = {}, n_q = {} ({} coefficients, {} bytes as f32)", self.n_p, self.n_q, self.n_p + self.n_q, self.function.byte_size_f32())?;
+        writeln!(
+            f,
+            "rational fit: n_p = {}, n_q = {} ({} coefficients, {} bytes as f32)",
+            self.n_p,
+            self.n_q,
+            self.n_p + self.n_q,
+            self.function.byte_size_f32()
+        )?;
         writeln!(f, "  samples             {}", self.samples)?;
-        writeln!(f, "  verified            {} (max violation {:.2e}, min q/max q {:.3e})", if v.satisfied { "yes" } else { "NO" }, v.max_violation, v.min_q_ratio)?;
+        writeln!(
+            f,
+            "  verified            {} (max violation {:.2e}, min q/max q {:.3e})",
+            if v.satisfied { "yes" } else { "NO" },
+            v.max_violation,
+            v.min_q_ratio
+        )?;
         writeln!(f, "  depth               {:.3e}", self.depth)?;
         match self.condition_number {
             Some(k) => writeln!(f, "  condition number    {k:.3e}")?,
@@ -95,13 +108,32 @@ impl fmt::Display for FitReport {
         writeln!(f, "  mean relative error {:.4e}", self.errors.mean_relative)?;
         writeln!(f, "  RMSE                {:.4e}", self.errors.rmse)?;
         match (self.poles.certified, self.poles.grid_min_q) {
-            (Some(c), _) => writeln!(f, "  poles               Bernstein certificate {}", if c { "holds: q > 0 on the box" } else { "FAILED" })?,
-            (None, Some(g)) => writeln!(f, "  poles               none on the dense grid (min q/max q {g:.3e})")?,
+            (Some(c), _) => writeln!(
+                f,
+                "  poles               Bernstein certificate {}",
+                if c {
+                    "holds: q > 0 on the box"
+                } else {
+                    "FAILED"
+                }
+            )?,
+            (None, Some(g)) => writeln!(
+                f,
+                "  poles               none on the dense grid (min q/max q {g:.3e})"
+            )?,
             _ => writeln!(f, "  poles               not checked between samples")?,
         }
         if self.widenings > 0 {
-            writeln!(f, "  intervals widened   {} times (half-widths x{})", self.widenings, self.interval_scale)?;
+            writeln!(
+                f,
+                "  intervals widened   {} times (half-widths x{})",
+                self.widenings, self.interval_scale
+            )?;
         }
-        write!(f, "  splits tried        {} ({} backend), wall time {:.3} s", self.splits_tried, self.backend, self.seconds)
+        write!(
+            f,
+            "  splits tried        {} ({} backend), wall time {:.3} s",
+            self.splits_tried, self.backend, self.seconds
+        )
     }
 }

@@ -24,7 +24,10 @@ impl std::str::FromStr for Selection {
         match s {
             "condition" | "condition_number" | "cond" => Ok(Self::ConditionNumber),
             "depth" => Ok(Self::Depth),
-            _ => Err(FitError::InvalidSetting { name: "selection", reason: format!("unknown `{s}` (condition, depth)") }),
+            _ => Err(FitError::InvalidSetting {
+                name: "selection",
+                reason: format!("unknown `{s}` (condition, depth)"),
+            }),
         }
     }
 }
@@ -97,7 +100,10 @@ impl Default for FitSettings {
 }
 
 fn invalid(name: &'static str, reason: impl Into<String>) -> FitError {
-    FitError::InvalidSetting { name, reason: reason.into() }
+    FitError::InvalidSetting {
+        name,
+        reason: reason.into(),
+    }
 }
 
 impl FitSettings {
@@ -119,10 +125,16 @@ impl FitSettings {
     /// `min < 2` or `min > max`.
     pub fn with_coeff_range(mut self, min: usize, max: usize) -> Result<Self, FitError> {
         if min < 2 {
-            return Err(invalid("min_coeffs", "a rational function needs at least 2 coefficients"));
+            return Err(invalid(
+                "min_coeffs",
+                "a rational function needs at least 2 coefficients",
+            ));
         }
         if min > max {
-            return Err(invalid("max_coeffs", format!("{max} is below min_coeffs {min}")));
+            return Err(invalid(
+                "max_coeffs",
+                format!("{max} is below min_coeffs {min}"),
+            ));
         }
         self.min_coeffs = min;
         self.max_coeffs = max;
@@ -158,7 +170,10 @@ impl FitSettings {
     /// `factor <= 1` or not finite.
     pub fn with_widening(mut self, factor: f64, times: usize) -> Result<Self, FitError> {
         if !(factor.is_finite() && factor > 1.0) {
-            return Err(invalid("widen_factor", format!("{factor} must be finite and above 1")));
+            return Err(invalid(
+                "widen_factor",
+                format!("{factor} must be finite and above 1"),
+            ));
         }
         self.widen_factor = factor;
         self.max_widenings = times;

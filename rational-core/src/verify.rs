@@ -72,13 +72,29 @@ pub fn verify(r: &RationalFunction, data: &IntervalData, extra: &[Vec<f64>]) -> 
                 let slack = tol * (pa + lo.abs().max(hi.abs()) * qa);
                 let ok = q > 0.0 && p - lo * q >= -slack && hi * q - p >= -slack;
                 let v = p / q;
-                let out = if v.is_finite() { (lo - v).max(v - hi).max(0.0) } else { f64::INFINITY };
+                let out = if v.is_finite() {
+                    (lo - v).max(v - hi).max(0.0)
+                } else {
+                    f64::INFINITY
+                };
                 let viol = out / lo.abs().max(hi.abs()).max(f64::MIN_POSITIVE);
-                Acc { ok, viol, worst: i, min_q: q, max_q: q.abs() }
+                Acc {
+                    ok,
+                    viol,
+                    worst: i,
+                    min_q: q,
+                    max_q: q.abs(),
+                }
             },
         )
         .reduce(
-            || Acc { ok: true, viol: -1.0, worst: 0, min_q: f64::INFINITY, max_q: 0.0 },
+            || Acc {
+                ok: true,
+                viol: -1.0,
+                worst: 0,
+                min_q: f64::INFINITY,
+                max_q: 0.0,
+            },
             |a, b| Acc {
                 ok: a.ok && b.ok,
                 viol: a.viol.max(b.viol),
@@ -87,14 +103,24 @@ pub fn verify(r: &RationalFunction, data: &IntervalData, extra: &[Vec<f64>]) -> 
                 max_q: a.max_q.max(b.max_q),
             },
         );
-    let c: Vec<f64> = r.numerator().iter().chain(r.denominator()).copied().collect();
+    let c: Vec<f64> = r
+        .numerator()
+        .iter()
+        .chain(r.denominator())
+        .copied()
+        .collect();
     let mut extra_min = f64::INFINITY;
     let mut ok = acc.ok;
     let mut worst = acc.worst;
     for (j, row) in extra.iter().enumerate() {
         let s: f64 = row.iter().zip(&c).map(|(a, b)| a * b).sum();
         let sa: f64 = row.iter().zip(&c).map(|(a, b)| (a * b).abs()).sum();
-        let nrm = row.iter().map(|v| v * v).sum::<f64>().sqrt().max(f64::MIN_POSITIVE);
+        let nrm = row
+            .iter()
+            .map(|v| v * v)
+            .sum::<f64>()
+            .sqrt()
+            .max(f64::MIN_POSITIVE);
         extra_min = extra_min.min(s / nrm);
         if s < -tol * sa {
             ok = false;
@@ -106,7 +132,11 @@ pub fn verify(r: &RationalFunction, data: &IntervalData, extra: &[Vec<f64>]) -> 
         max_violation: acc.viol.max(0.0),
         worst,
         min_q: acc.min_q,
-        min_q_ratio: if acc.max_q > 0.0 { acc.min_q / acc.max_q } else { 0.0 },
+        min_q_ratio: if acc.max_q > 0.0 {
+            acc.min_q / acc.max_q
+        } else {
+            0.0
+        },
         extra_min_margin: extra_min,
     }
 }
@@ -133,7 +163,11 @@ pub fn error_figures(r: &RationalFunction, data: &IntervalData) -> ErrorFigures 
     }
     ErrorFigures {
         max_relative: max_rel,
-        mean_relative: if n_rel > 0 { sum_rel / n_rel as f64 } else { 0.0 },
+        mean_relative: if n_rel > 0 {
+            sum_rel / n_rel as f64
+        } else {
+            0.0
+        },
         max_absolute: max_abs,
         rmse: (sq / fitted.len().max(1) as f64).sqrt(),
     }

@@ -21,7 +21,11 @@ fn read_alta(path: &std::path::Path) -> Vec<Vec<f64>> {
         .unwrap_or_else(|e| panic!("{}: {e}", path.display()))
         .lines()
         .filter(|l| !l.trim_start().starts_with('#') && !l.trim().is_empty())
-        .map(|l| l.split_whitespace().map(|v| v.parse().expect("numeric ALTA row")).collect())
+        .map(|l| {
+            l.split_whitespace()
+                .map(|v| v.parse().expect("numeric ALTA row"))
+                .collect()
+        })
         .collect()
 }
 
@@ -40,17 +44,39 @@ fn check(name: &str, data: &IntervalData, smallest: usize, feasible: &[(usize, u
     let report = fit(data, &settings()).unwrap_or_else(|e| panic!("{name}: {e}"));
     assert_eq!(report.n_p + report.n_q, smallest, "{name}: smallest budget");
     assert!(report.verification.satisfied, "{name}");
-    assert!(report.errors.max_relative <= 0.02 * (1.0 + 1e-9), "{name}: {:?}", report.errors);
-    let at_budget: Vec<_> = report.splits.iter().filter(|s| s.n_p + s.n_q == smallest && s.accepted).collect();
+    assert!(
+        report.errors.max_relative <= 0.02 * (1.0 + 1e-9),
+        "{name}: {:?}",
+        report.errors
+    );
+    let at_budget: Vec<_> = report
+        .splits
+        .iter()
+        .filter(|s| s.n_p + s.n_q == smallest && s.accepted)
+        .collect();
     if !feasible.is_empty() {
-        assert_eq!(at_budget.len(), feasible.len(), "{name}: feasible splits {at_budget:?}");
+        assert_eq!(
+            at_budget.len(),
+            feasible.len(),
+            "{name}: feasible splits {at_budget:?}"
+        );
         for &(np, nq, depth) in feasible {
-            let s = at_budget.iter().find(|s| s.n_p == np && s.n_q == nq).unwrap_or_else(|| panic!("{name}: ({np},{nq}) not feasible"));
+            let s = at_budget
+                .iter()
+                .find(|s| s.n_p == np && s.n_q == nq)
+                .unwrap_or_else(|| panic!("{name}: ({np},{nq}) not feasible"));
             let rel = (s.depth / depth - 1.0).abs();
-            assert!(rel < 0.05, "{name} ({np},{nq}): depth {:.3e}, reference {depth:.1e}", s.depth);
+            assert!(
+                rel < 0.05,
+                "{name} ({np},{nq}): depth {:.3e}, reference {depth:.1e}",
+                s.depth
+            );
         }
     }
-    eprintln!("{name}: N = {smallest}, chosen ({}, {}), depth {:.3e}, {:.3} s", report.n_p, report.n_q, report.depth, report.seconds);
+    eprintln!(
+        "{name}: N = {smallest}, chosen ({}, {}), depth {:.3e}, {:.3} s",
+        report.n_p, report.n_q, report.depth, report.seconds
+    );
 }
 
 #[test]
@@ -73,7 +99,17 @@ fn pink_felt_slice_two_percent() {
         let v = rows.iter().map(|r| r[c]).collect();
         IntervalData::from_values_relative(1, x.clone(), v, 0.02).unwrap()
     };
-    check("pink-felt red", &channel(1), 7, &[(3, 4, 2.0e-5), (4, 3, 1.8e-5)]);
+    check(
+        "pink-felt red",
+        &channel(1),
+        7,
+        &[(3, 4, 2.0e-5), (4, 3, 1.8e-5)],
+    );
     check("pink-felt green", &channel(2), 8, &[]);
-    check("pink-felt blue", &channel(3), 10, &[(1, 9, 6.3e-4), (9, 1, 1.3e-4)]);
+    check(
+        "pink-felt blue",
+        &channel(3),
+        10,
+        &[(1, 9, 6.3e-4), (9, 1, 1.3e-4)],
+    );
 }

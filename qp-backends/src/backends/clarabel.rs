@@ -45,23 +45,42 @@ impl LdpSolver for ClarabelSolver {
         let cones = [SupportedConeT::NonnegativeConeT(m)];
         let settings = DefaultSettings::<f64> {
             verbose: false,
-            max_iter: options.max_iterations.map_or(200, |v| v.min(u32::MAX as usize) as u32),
+            max_iter: options
+                .max_iterations
+                .map_or(200, |v| v.min(u32::MAX as usize) as u32),
             ..DefaultSettings::default()
         };
-        let mut solver = DefaultSolver::new(&p, &vec![0.0; n], &a, &b, &cones, settings).map_err(|e| {
-            Error::BackendFailure { backend: "clarabel", message: e.to_string() }
-        })?;
+        let mut solver =
+            DefaultSolver::new(&p, &vec![0.0; n], &a, &b, &cones, settings).map_err(|e| {
+                Error::BackendFailure {
+                    backend: "clarabel",
+                    message: e.to_string(),
+                }
+            })?;
         solver.solve();
         let status = match solver.solution.status {
             SolverStatus::Solved => Status::Solved,
             SolverStatus::AlmostSolved => Status::Inaccurate,
-            SolverStatus::PrimalInfeasible | SolverStatus::AlmostPrimalInfeasible => Status::Infeasible,
+            SolverStatus::PrimalInfeasible | SolverStatus::AlmostPrimalInfeasible => {
+                Status::Infeasible
+            }
             SolverStatus::MaxIterations | SolverStatus::MaxTime => Status::IterationLimit,
             _ => Status::NumericalTrouble,
         };
         let x = solver.solution.x.clone();
-        let x = if status == Status::Infeasible || norm(&x).is_nan() { vec![0.0; n] } else { x };
+        let x = if status == Status::Infeasible || norm(&x).is_nan() {
+            vec![0.0; n]
+        } else {
+            x
+        };
         let iterations = solver.solution.iterations as usize;
-        Ok(Solution::measured(problem, status, x, iterations, Vec::new(), "clarabel"))
+        Ok(Solution::measured(
+            problem,
+            status,
+            x,
+            iterations,
+            Vec::new(),
+            "clarabel",
+        ))
     }
 }

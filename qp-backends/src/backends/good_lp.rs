@@ -11,7 +11,9 @@
 
 use crate::problem::dot;
 use crate::{Error, LdpProblem, LdpSolver, Solution, SolveOptions, Status};
-use good_lp::{variable, Expression, ProblemVariables, ResolutionError, Solution as _, SolverModel};
+use good_lp::{
+    variable, Expression, ProblemVariables, ResolutionError, Solution as _, SolverModel,
+};
 
 /// good_lp + microlp on the LP form.
 #[derive(Debug, Clone, Copy, Default)]
@@ -26,14 +28,23 @@ impl LdpSolver for GoodLpSolver {
         let (m, n) = (problem.rows(), problem.cols());
         let norms = problem.row_norms();
         let mut vars = ProblemVariables::new();
-        let y: Vec<_> = (0..n).map(|_| vars.add(variable().min(-1.0).max(1.0))).collect();
+        let y: Vec<_> = (0..n)
+            .map(|_| vars.add(variable().min(-1.0).max(1.0)))
+            .collect();
         let s = vars.add(variable().min(0.0).max(1.0));
         let t = vars.add(variable().max(1.0));
         let mut model = vars.maximise(t).using(good_lp::microlp);
         for j in 0..m {
             if norms[j] == 0.0 {
                 if problem.h()[j] > 0.0 {
-                    return Ok(Solution::measured(problem, Status::Infeasible, vec![0.0; n], 0, vec![], "good_lp"));
+                    return Ok(Solution::measured(
+                        problem,
+                        Status::Infeasible,
+                        vec![0.0; n],
+                        0,
+                        vec![],
+                        "good_lp",
+                    ));
                 }
                 continue;
             }
@@ -49,17 +60,34 @@ impl LdpSolver for GoodLpSolver {
         let sol = match model.solve() {
             Ok(sol) => sol,
             Err(ResolutionError::Infeasible) => {
-                return Ok(Solution::measured(problem, Status::Infeasible, vec![0.0; n], 0, vec![], "good_lp"))
+                return Ok(Solution::measured(
+                    problem,
+                    Status::Infeasible,
+                    vec![0.0; n],
+                    0,
+                    vec![],
+                    "good_lp",
+                ))
             }
             Err(e) => {
-                return Err(Error::BackendFailure { backend: "good_lp", message: e.to_string() })
+                return Err(Error::BackendFailure {
+                    backend: "good_lp",
+                    message: e.to_string(),
+                })
             }
         };
         let tv = sol.value(t);
         let sv = sol.value(s);
         let yv: Vec<f64> = y.iter().map(|v| sol.value(*v)).collect();
         if tv <= 0.0 {
-            return Ok(Solution::measured(problem, Status::Infeasible, vec![0.0; n], 0, vec![], "good_lp"));
+            return Ok(Solution::measured(
+                problem,
+                Status::Infeasible,
+                vec![0.0; n],
+                0,
+                vec![],
+                "good_lp",
+            ));
         }
         let x: Vec<f64> = if sv > 1e-9 {
             yv.iter().map(|v| v / sv).collect()
@@ -71,6 +99,13 @@ impl LdpSolver for GoodLpSolver {
                 .fold(1.0_f64, f64::max);
             yv.iter().map(|v| v * k).collect()
         };
-        Ok(Solution::measured(problem, Status::Solved, x, 0, Vec::new(), "good_lp"))
+        Ok(Solution::measured(
+            problem,
+            Status::Solved,
+            x,
+            0,
+            Vec::new(),
+            "good_lp",
+        ))
     }
 }

@@ -15,7 +15,7 @@
 //! Householder QR (faer). Both are backward stable, so the residual of every
 //! active row stays at rounding level even when `||x|| = 1e9`.
 
-use crate::problem::{dot, norm};
+use crate::problem::{dot, matvec, matvec_col_major, norm};
 use crate::tolerance::rounding_tolerance;
 use crate::{Error, LdpProblem, LdpSolver, Solution, SolveOptions, Status};
 use rayon::prelude::*;
@@ -84,6 +84,7 @@ struct DualActiveSet {
     d: Vec<f64>,
     z: Vec<f64>,
     rr: Vec<f64>,
+    slack: Vec<f64>,
 }
 
 impl DualActiveSet {
@@ -106,6 +107,7 @@ impl DualActiveSet {
             d: vec![0.0; n],
             z: vec![0.0; n],
             rr: vec![0.0; n],
+            slack: Vec::new(),
         }
     }
 
@@ -113,17 +115,9 @@ impl DualActiveSet {
     /// returns `||d_2||`.
     fn directions(&mut self, np: &[f64]) -> f64 {
         let n = self.n;
-        for k in 0..n {
-            self.d[k] = dot(&self.j[k * n..(k + 1) * n], np);
-        }
-        self.z.iter_mut().for_each(|v| *v = 0.0);
-        for k in self.q..n {
-            let dk = self.d[k];
-            let col = &self.j[k * n..(k + 1) * n];
-            for (zi, ci) in self.z.iter_mut().zip(col) {
-                *zi += dk * ci;
-            }
-        }
+        // J is column-major, so its storage is J^T row-major.
+        matvec(&self.j, np, &mut self.d);
+        matvec_col_major(&self.j[self.q * n..], &self.d[self.q..], &mut self.z);
         // Back substitution R rr = d_1.
         for i in (0..self.q).rev() {
             let mut s = self.d[i];
@@ -218,14 +212,7 @@ impl DualActiveSet {
             }
             self.rr[i] = s / self.r[i * n + i];
         }
-        self.x.iter_mut().for_each(|v| *v = 0.0);
-        for k in 0..q {
-            let y = self.rr[k];
-            let col = &self.j[k * n..(k + 1) * n];
-            for (xi, ci) in self.x.iter_mut().zip(col) {
-                *xi += y * ci;
-            }
-        }
+        matvec_col_major(&self.j[..q * n], &self.rr[..q], &mut self.x);
         // u = R^{-1} y.
         for i in (0..q).rev() {
             let mut s = self.rr[i];
@@ -243,12 +230,14 @@ impl DualActiveSet {
         loop {
             // Most violated inactive row.
             let norm_x = norm(&self.x);
+            self.slack.resize(ws.len(), 0.0);
+            matvec(&ws.rows, &self.x, &mut self.slack);
             let mut best: Option<(usize, f64)> = None;
             for k in 0..ws.len() {
                 if is_active[k] {
                     continue;
                 }
-                let s = dot(ws.row(k), &self.x) - ws.h[k];
+                let s = self.slack[k] - ws.h[k];
                 if s < -tol * (ws.h[k].abs() + norm_x) && best.is_none_or(|(_, b)| s < b) {
                     best = Some((k, s));
                 }
@@ -376,9 +365,19 @@ fn worst_violation(problem: &LdpProblem, inv_norm: &[f64], x: &[f64], parallel: 
         (hn - dot(row, x) * inv_norm[j]) / (hn.abs() + norm_x)
     };
     if parallel {
-        problem.g().par_chunks_exact(cols).enumerate().map(f).reduce(|| f64::NEG_INFINITY, f64::max)
+        problem
+            .g()
+            .par_chunks_exact(cols)
+            .enumerate()
+            .map(f)
+            .reduce(|| f64::NEG_INFINITY, f64::max)
     } else {
-        problem.g().chunks_exact(cols).enumerate().map(f).fold(f64::NEG_INFINITY, f64::max)
+        problem
+            .g()
+            .chunks_exact(cols)
+            .enumerate()
+            .map(f)
+            .fold(f64::NEG_INFINITY, f64::max)
     }
 }
 
@@ -392,11 +391,23 @@ fn solve_native(problem: &LdpProblem, options: &SolveOptions) -> Solution {
         .collect();
     // A zero row with h > 0 can never hold.
     if let Some(j) = (0..m).find(|&j| inv_norm[j] == 0.0 && problem.h()[j] > 0.0) {
-        return Solution::measured(problem, Status::Infeasible, vec![0.0; n], 0, vec![j], "native");
+        return Solution::measured(
+            problem,
+            Status::Infeasible,
+            vec![0.0; n],
+            0,
+            vec![j],
+            "native",
+        );
     }
     let usable: Vec<usize> = (0..m).filter(|&j| inv_norm[j] > 0.0).collect();
     let generate = usable.len() > options.working_set_threshold;
-    let mut ws = WorkingSet { cols: n, rows: Vec::new(), h: Vec::new(), global: Vec::new() };
+    let mut ws = WorkingSet {
+        cols: n,
+        rows: Vec::new(),
+        h: Vec::new(),
+        global: Vec::new(),
+    };
     let mut in_ws = vec![false; m];
     let mut seed = |j: usize, ws: &mut WorkingSet| {
         if j < m && inv_norm[j] > 0.0 && !in_ws[j] {
@@ -408,10 +419,16 @@ fn solve_native(problem: &LdpProblem, options: &SolveOptions) -> Solution {
         for &j in &options.warm_start {
             seed(j, &mut ws);
         }
-        // A stratified subset: evenly spaced rows.
+        // A well-spread subset: the golden-ratio sequence, which does not
+        // alias with periodic row structure (such as lower/upper pairs).
         let initial = (8 * n).max(256).min(usable.len());
+        let phi = 0.618_033_988_749_894_9_f64;
         for k in 0..initial {
-            seed(usable[k * usable.len() / initial], &mut ws);
+            let u = (k as f64 * phi).fract();
+            seed(
+                usable[((u * usable.len() as f64) as usize).min(usable.len() - 1)],
+                &mut ws,
+            );
         }
     } else {
         for &j in &usable {
@@ -447,9 +464,19 @@ fn solve_native(problem: &LdpProblem, options: &SolveOptions) -> Solution {
             (s < -tol * (hn.abs() + norm_x)).then_some((s, j))
         };
         let mut violated: Vec<(f64, usize)> = if options.parallel {
-            problem.g().par_chunks_exact(n).enumerate().filter_map(check).collect()
+            problem
+                .g()
+                .par_chunks_exact(n)
+                .enumerate()
+                .filter_map(check)
+                .collect()
         } else {
-            problem.g().chunks_exact(n).enumerate().filter_map(check).collect()
+            problem
+                .g()
+                .chunks_exact(n)
+                .enumerate()
+                .filter_map(check)
+                .collect()
         };
         if violated.is_empty() {
             break Status::Solved;
@@ -465,8 +492,19 @@ fn solve_native(problem: &LdpProblem, options: &SolveOptions) -> Solution {
     };
     let active_global: Vec<usize> = state.active.iter().map(|&k| ws.global[k]).collect();
     if status != Status::Solved {
-        let x = if status == Status::Infeasible { vec![0.0; n] } else { state.x.clone() };
-        return Solution::measured(problem, status, x, state.iterations, active_global, "native");
+        let x = if status == Status::Infeasible {
+            vec![0.0; n]
+        } else {
+            state.x.clone()
+        };
+        return Solution::measured(
+            problem,
+            status,
+            x,
+            state.iterations,
+            active_global,
+            "native",
+        );
     }
     let mut x = state.x.clone();
     if options.polish {
@@ -478,10 +516,20 @@ fn solve_native(problem: &LdpProblem, options: &SolveOptions) -> Solution {
             }
         }
     }
-    let sol = Solution::measured(problem, Status::Solved, x, state.iterations, active_global, "native");
+    let sol = Solution::measured(
+        problem,
+        Status::Solved,
+        x,
+        state.iterations,
+        active_global,
+        "native",
+    );
     if sol.residuals.satisfied {
         sol
     } else {
-        Solution { status: Status::NumericalTrouble, ..sol }
+        Solution {
+            status: Status::NumericalTrouble,
+            ..sol
+        }
     }
 }

@@ -51,10 +51,18 @@ impl LdpSolver for OsqpSolver {
         };
         let l: Vec<f64> = problem.h().iter().zip(&inv).map(|(h, s)| h * s).collect();
         let u = vec![f64::INFINITY; m];
-        let max_iter = options.max_iterations.map_or(20_000, |v| v.min(u32::MAX as usize) as u32);
-        let settings = Settings::default().verbose(false).max_iter(max_iter).polish(true);
+        let max_iter = options
+            .max_iterations
+            .map_or(20_000, |v| v.min(u32::MAX as usize) as u32);
+        let settings = Settings::default()
+            .verbose(false)
+            .max_iter(max_iter)
+            .polish(true);
         let mut prob = Problem::new(p, &vec![0.0; n], a, &l, &u, &settings).map_err(|e| {
-            Error::BackendFailure { backend: "osqp", message: format!("{e:?}") }
+            Error::BackendFailure {
+                backend: "osqp",
+                message: format!("{e:?}"),
+            }
         })?;
         let result = prob.solve();
         let iterations = result.iter() as usize;
@@ -69,6 +77,13 @@ impl LdpSolver for OsqpSolver {
             }
             _ => (Status::NumericalTrouble, vec![0.0; n]),
         };
-        Ok(Solution::measured(problem, status, x, iterations, Vec::new(), "osqp"))
+        Ok(Solution::measured(
+            problem,
+            status,
+            x,
+            iterations,
+            Vec::new(),
+            "osqp",
+        ))
     }
 }

@@ -1,0 +1,177 @@
+//! End-to-end tests of the `ratfit` binary.
+
+use std::path::PathBuf;
+use std::process::Command;
+
+fn ratfit() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_ratfit"))
+}
+
+fn scratch(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("ratfit-cli-{}-{name}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn runge_csv(dir: &std::path::Path) -> PathBuf {
+    let mut s = String::from("x,value\n");
+    for i in 0..500 {
+        let x = -1.0 + 2.0 * i as f64 / 499.0;
+        s.push_str(&format!("{x},{}\n", 1.0 / (1.0 + 25.0 * x * x)));
+    }
+    let p = dir.join("runge.csv");
+    std::fs::write(&p, s).unwrap();
+    p
+}
+
+#[test]
+fn fit_then_eval_reproduces_the_data_within_the_bound() {
+    let dir = scratch("fit");
+    let data = runge_csv(&dir);
+    let fit = dir.join("fit.json");
+    let out = ratfit()
+        .args(["fit-csv"])
+        .arg(&data)
+        .args(["--rel-tol", "0.01", "-o"])
+        .arg(&fit)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let report = String::from_utf8_lossy(&out.stdout);
+    assert!(report.contains("verified            yes"), "{report}");
+    assert!(report.contains("n_p = 1, n_q = 3"), "{report}");
+
+    let pts = dir.join("pts.csv");
+    std::fs::write(&pts, "x\n-1\n0\n0.5\n").unwrap();
+    let out = ratfit()
+        .arg("eval")
+        .arg(&fit)
+        .arg("--points")
+        .arg(&pts)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let vals: Vec<f64> = String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .map(|l| l.parse().unwrap())
+        .collect();
+    for (x, v) in [-1.0f64, 0.0, 0.5].iter().zip(&vals) {
+        let truth = 1.0 / (1.0 + 25.0 * x * x);
+        assert!((v / truth - 1.0).abs() <= 0.01, "x = {x}: {v} vs {truth}");
+    }
+    std::fs::remove_dir_all(dir).ok();
+}
+
+#[test]
+fn dump_qp_writes_npy_files() {
+    let dir = scratch("dump");
+    let data = runge_csv(&dir);
+    let out = ratfit()
+        .arg("dump-qp")
+        .arg(&data)
+        .args(["--split", "2,3", "--out"])
+        .arg(dir.join("qp"))
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let g = std::fs::read(dir.join("qp/G.npy")).unwrap();
+    assert!(g.starts_with(b"\x93NUMPY"));
+    let header_len = u16::from_le_bytes([g[8], g[9]]) as usize;
+    assert_eq!(g.len(), 10 + header_len + 8 * 1000 * 5);
+    assert!(std::str::from_utf8(&g[10..10 + header_len])
+        .unwrap()
+        .contains("(1000, 5)"));
+    std::fs::remove_dir_all(dir).ok();
+}
+
+#[test]
+fn bad_input_gives_clear_errors() {
+    let dir = scratch("bad");
+    let bad = dir.join("bad.csv");
+    std::fs::write(&bad, "x,v\n0,1\n0.5,abc\n").unwrap();
+    let out = ratfit()
+        .arg("fit-csv")
+        .arg(&bad)
+        .args(["-o"])
+        .arg(dir.join("f.json"))
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("line 3") && err.contains("not a number"),
+        "{err}"
+    );
+
+    std::fs::write(&bad, "x,lo,hi\n0,2,1\n0.5,1,2\n1,1,2\n").unwrap();
+    let out = ratfit()
+        .arg("fit-csv")
+        .arg(&bad)
+        .args(["--intervals", "-o"])
+        .arg(dir.join("f.json"))
+        .output()
+        .unwrap();
+    assert!(String::from_utf8_lossy(&out.stderr).contains("lower bound 2 is above upper bound 1"));
+
+    let out = ratfit()
+        .arg("fit-csv")
+        .arg(dir.join("missing.csv"))
+        .args(["-o", "x.json"])
+        .output()
+        .unwrap();
+    assert!(String::from_utf8_lossy(&out.stderr).contains("cannot read"));
+
+    let out = ratfit()
+        .arg("fit-csv")
+        .arg(&bad)
+        .args(["--backend", "gurobi", "-o", "x.json"])
+        .output()
+        .unwrap();
+    assert!(String::from_utf8_lossy(&out.stderr).contains("unknown backend"));
+    std::fs::remove_dir_all(dir).ok();
+}
+
+#[test]
+fn missing_backend_is_named() {
+    let out = ratfit().arg("backends").output().unwrap();
+    let text = String::from_utf8_lossy(&out.stdout).to_string();
+    assert!(text.contains("native    compiled"));
+    if text.contains("clarabel  not compiled") {
+        let dir = scratch("nb");
+        let data = runge_csv(&dir);
+        let out = ratfit()
+            .arg("fit-csv")
+            .arg(&data)
+            .args(["--backend", "clarabel", "-o"])
+            .arg(dir.join("f.json"))
+            .output()
+            .unwrap();
+        assert!(!out.status.success());
+        assert!(String::from_utf8_lossy(&out.stderr).contains("not compiled"));
+        std::fs::remove_dir_all(dir).ok();
+    }
+}
+
+#[test]
+fn demo_runs_and_verifies() {
+    let out = ratfit().arg("demo").output().unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(text.matches("verified            yes").count(), 2, "{text}");
+}
