@@ -54,10 +54,13 @@ impl LdpSolver for OsqpSolver {
         let max_iter = options
             .max_iterations
             .map_or(20_000, |v| v.min(u32::MAX as usize) as u32);
+        // A fixed rho-adaptation interval: OSQP's default derives it from the
+        // measured setup time, which makes results vary from run to run.
         let settings = Settings::default()
             .verbose(false)
             .max_iter(max_iter)
-            .polish(true);
+            .polish(true)
+            .adaptive_rho_interval(Some(25));
         let mut prob = Problem::new(p, &vec![0.0; n], a, &l, &u, &settings).map_err(|e| {
             Error::BackendFailure {
                 backend: "osqp",

@@ -1,0 +1,63 @@
+//! The crate's error type.
+
+use std::path::PathBuf;
+
+/// Errors reading, writing or fitting reflectance data.
+#[derive(Debug, thiserror::Error)]
+pub enum BrdfError {
+    /// The file could not be read or written.
+    #[error("{path}: {source}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The system's error.
+        source: std::io::Error,
+    },
+    /// The content does not follow the format.
+    #[error("{path}: malformed {format} file: {reason}")]
+    Malformed {
+        /// The file (or `<memory>`).
+        path: PathBuf,
+        /// Format name.
+        format: &'static str,
+        /// What is wrong.
+        reason: String,
+    },
+    /// A parameter is out of range.
+    #[error("invalid {name}: {reason}")]
+    Invalid {
+        /// Parameter name.
+        name: &'static str,
+        /// Why.
+        reason: String,
+    },
+    /// The fitting engine failed.
+    #[error("channel {channel}: {source}")]
+    Fit {
+        /// Colour channel (r, g or b).
+        channel: char,
+        /// The engine's error.
+        source: rational_core::FitError,
+    },
+}
+
+impl BrdfError {
+    pub(crate) fn malformed(
+        path: &std::path::Path,
+        format: &'static str,
+        reason: impl Into<String>,
+    ) -> Self {
+        Self::Malformed {
+            path: path.to_path_buf(),
+            format,
+            reason: reason.into(),
+        }
+    }
+
+    pub(crate) fn io(path: &std::path::Path, source: std::io::Error) -> Self {
+        Self::Io {
+            path: path.to_path_buf(),
+            source,
+        }
+    }
+}

@@ -1,0 +1,321 @@
+//! Fitting the RGB channels of a BRDF and evaluating the fit.
+
+use crate::geometry::{HalfDiff, Vec3};
+use crate::reduce::{Reduction, Samples};
+use crate::{Brdf, BrdfError};
+use rational_core::{fit, FitSettings, RationalFunction};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use std::fmt;
+use std::time::Instant;
+
+/// Settings of [`fit_brdf`].
+#[derive(Debug, Clone)]
+pub struct BrdfFitSettings {
+    reduction: Reduction,
+    rel_tol: f64,
+    fit: FitSettings,
+}
+
+impl Default for BrdfFitSettings {
+    /// The 2-D slice on the MERL grid, relative intervals of 5%, budgets up
+    /// to 60 coefficients per channel, rational-core's other defaults.
+    fn default() -> Self {
+        Self {
+            reduction: Reduction::default(),
+            rel_tol: 0.05,
+            fit: FitSettings::default()
+                .with_coeff_range(2, 60)
+                .expect("valid range"),
+        }
+    }
+}
+
+impl BrdfFitSettings {
+    /// Sampling and coordinates.
+    pub fn with_reduction(mut self, r: Reduction) -> Self {
+        self.reduction = r;
+        self
+    }
+
+    /// Relative half-width of the intervals.
+    ///
+    /// # Errors
+    /// Not in `(0, 1)`.
+    pub fn with_rel_tol(mut self, t: f64) -> Result<Self, BrdfError> {
+        if !(t > 0.0 && t < 1.0) {
+            return Err(BrdfError::Invalid {
+                name: "relative tolerance",
+                reason: format!("{t} is not in (0, 1)"),
+            });
+        }
+        self.rel_tol = t;
+        Ok(self)
+    }
+
+    /// The engine's settings (basis, budgets, backend, pole control).
+    pub fn with_fit_settings(mut self, s: FitSettings) -> Self {
+        self.fit = s;
+        self
+    }
+
+    /// The reduction in use.
+    pub fn reduction(&self) -> &Reduction {
+        &self.reduction
+    }
+}
+
+/// A fitted isotropic BRDF: one rational function per RGB channel over the
+/// reduction's coordinates.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FittedBrdf {
+    /// What the functions were fitted to.
+    pub reduction: Reduction,
+    /// Red, green and blue.
+    pub channels: Vec<RationalFunction>,
+    /// Source material.
+    pub name: String,
+}
+
+impl FittedBrdf {
+    /// Fitting coordinates of a direction pair: `phi_d` folded by
+    /// reciprocity, `theta_d` clamped to the fitted range (no extrapolation
+    /// into the grazing cut).
+    pub fn coordinates(&self, wi: Vec3, wo: Vec3) -> Vec<f64> {
+        let hd = HalfDiff::from_directions(wi, wo);
+        let td = hd.theta_d.min(self.reduction.max_theta_d_deg.to_radians());
+        self.reduction
+            .coordinates
+            .map(hd.theta_h, td, hd.folded_phi_d(), self.reduction.dims())
+    }
+
+    /// Evaluates every channel in f64; negative values (possible only between
+    /// samples) are clamped to zero.
+    pub fn eval_coords(&self, x: &[f64]) -> [f64; 3] {
+        [0, 1, 2].map(|c| self.channels[c].eval(x).max(0.0))
+    }
+
+    /// Evaluates the fit at many direction pairs in parallel.
+    pub fn eval_many(&self, pairs: &[(Vec3, Vec3)]) -> Vec<[f64; 3]> {
+        pairs
+            .par_iter()
+            .map(|&(wi, wo)| self.eval(wi, wo))
+            .collect()
+    }
+
+    /// Total coefficients over the channels.
+    pub fn coefficients(&self) -> usize {
+        self.channels
+            .iter()
+            .map(|f| f.split().0 + f.split().1)
+            .sum()
+    }
+
+    /// Bytes of all coefficients as f32.
+    pub fn byte_size_f32(&self) -> usize {
+        self.channels
+            .iter()
+            .map(RationalFunction::byte_size_f32)
+            .sum()
+    }
+}
+
+impl Brdf for FittedBrdf {
+    fn eval(&self, wi: Vec3, wo: Vec3) -> [f64; 3] {
+        if wi[2] <= 0.0 || wo[2] <= 0.0 {
+            return [0.0; 3];
+        }
+        self.eval_coords(&self.coordinates(wi, wo))
+    }
+
+    fn name(&self) -> String {
+        format!("rational fit of {}", self.name)
+    }
+}
+
+/// Figures of one channel's fit.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ChannelReport {
+    /// `r`, `g` or `b`.
+    pub channel: char,
+    /// Numerator coefficients.
+    pub n_p: usize,
+    /// Denominator coefficients.
+    pub n_q: usize,
+    /// Coefficient bytes as f32.
+    pub bytes_f32: usize,
+    /// Verified inside every interval in f64.
+    pub verified: bool,
+    /// Depth of the chosen P(n_p, n_q) solution.
+    pub depth: f64,
+    /// Samples fitted.
+    pub samples: usize,
+    /// Max relative error on the fitted samples.
+    pub max_rel: f64,
+    /// Mean relative error on the fitted samples.
+    pub mean_rel: f64,
+    /// Max relative error on every valid sample, grazing ones included
+    /// (evaluated with `theta_d` clamped to the fitted range).
+    pub max_rel_all: f64,
+    /// Mean relative error on every valid sample.
+    pub mean_rel_all: f64,
+    /// RMSE on the fitted samples.
+    pub rmse: f64,
+    /// RMSE weighted by `cos theta_i cos theta_o` (normalised weights).
+    pub cos_rmse: f64,
+    /// Fit time (the sweep) in seconds.
+    pub seconds: f64,
+}
+
+/// The report of [`fit_brdf`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct BrdfFitReport {
+    /// Source material.
+    pub material: String,
+    /// Sampling used.
+    pub reduction: Reduction,
+    /// Relative half-width of the intervals.
+    pub rel_tol: f64,
+    /// Per channel.
+    pub channels: Vec<ChannelReport>,
+    /// Total wall time, sampling included.
+    pub seconds: f64,
+}
+
+impl fmt::Display for BrdfFitReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let r = &self.reduction;
+        writeln!(
+            f,
+            "{}: {:?} in {:?} coordinates, theta_d <= {} deg, intervals +-{}%",
+            self.material,
+            r.kind,
+            r.coordinates,
+            r.max_theta_d_deg,
+            self.rel_tol * 100.0
+        )?;
+        writeln!(
+            f,
+            "  ch  n_p n_q  bytes  samples  verified   max rel  mean rel  max rel*  mean rel*      RMSE   cos-RMSE    time s"
+        )?;
+        for c in &self.channels {
+            writeln!(
+                f,
+                "  {}   {:>3} {:>3} {:>6} {:>8}  {:>8} {:>9.3e} {:>9.3e} {:>9.3e} {:>10.3e} {:>9.3e} {:>10.3e} {:>9.3}",
+                c.channel,
+                c.n_p,
+                c.n_q,
+                c.bytes_f32,
+                c.samples,
+                if c.verified { "yes" } else { "NO" },
+                c.max_rel,
+                c.mean_rel,
+                c.max_rel_all,
+                c.mean_rel_all,
+                c.rmse,
+                c.cos_rmse,
+                c.seconds
+            )?;
+        }
+        write!(
+            f,
+            "  * every valid sample, grazing ones included; total wall time {:.3} s",
+            self.seconds
+        )
+    }
+}
+
+/// Samples `material`, fits each RGB channel (in parallel) with the sweep,
+/// and reports error next to cost.
+///
+/// # Errors
+/// Invalid settings, no positive samples, or no feasible fit for a channel.
+pub fn fit_brdf(
+    material: &dyn Brdf,
+    settings: &BrdfFitSettings,
+) -> Result<(FittedBrdf, BrdfFitReport), BrdfError> {
+    let start = Instant::now();
+    let samples = settings.reduction.sample(material);
+    let results: Vec<Result<(RationalFunction, ChannelReport), BrdfError>> = (0..3)
+        .into_par_iter()
+        .map(|c| fit_channel(&samples, c, settings))
+        .collect();
+    let mut channels = Vec::with_capacity(3);
+    let mut reports = Vec::with_capacity(3);
+    for r in results {
+        let (f, rep) = r?;
+        channels.push(f);
+        reports.push(rep);
+    }
+    let fitted = FittedBrdf {
+        reduction: settings.reduction,
+        channels,
+        name: material.name(),
+    };
+    // Errors over every valid sample, grazing ones included.
+    for (c, rep) in reports.iter_mut().enumerate() {
+        let (mut max, mut sum, mut n) = (0.0_f64, 0.0, 0usize);
+        for row in samples
+            .rows
+            .iter()
+            .filter(|r| r.value[c] > 0.0 && r.value[c].is_finite())
+        {
+            let r = &settings.reduction;
+            let [th, td, pd] = row.angles;
+            let x = r
+                .coordinates
+                .map(th, td.min(r.max_theta_d_deg.to_radians()), pd, r.dims());
+            let e = (fitted.channels[c].eval(&x).max(0.0) / row.value[c] - 1.0).abs();
+            max = max.max(e);
+            sum += e;
+            n += 1;
+        }
+        rep.max_rel_all = max;
+        rep.mean_rel_all = if n > 0 { sum / n as f64 } else { 0.0 };
+    }
+    let report = BrdfFitReport {
+        material: material.name(),
+        reduction: settings.reduction,
+        rel_tol: settings.rel_tol,
+        channels: reports,
+        seconds: start.elapsed().as_secs_f64(),
+    };
+    Ok((fitted, report))
+}
+
+fn fit_channel(
+    samples: &Samples,
+    c: usize,
+    s: &BrdfFitSettings,
+) -> Result<(RationalFunction, ChannelReport), BrdfError> {
+    let channel = ['r', 'g', 'b'][c];
+    let (data, used) = samples
+        .channel(c, s.rel_tol)
+        .map_err(|e| BrdfError::Fit { channel, source: e })?;
+    let report = fit(&data, &s.fit).map_err(|e| BrdfError::Fit { channel, source: e })?;
+    let f = report.function.clone();
+    let (mut wsum, mut wsq) = (0.0, 0.0);
+    for (k, &i) in used.iter().enumerate() {
+        let row = &samples.rows[i];
+        let e = f.eval(data.point(k)) - row.value[c];
+        wsum += row.cos_weight;
+        wsq += row.cos_weight * e * e;
+    }
+    let rep = ChannelReport {
+        channel,
+        n_p: report.n_p,
+        n_q: report.n_q,
+        bytes_f32: f.byte_size_f32(),
+        verified: report.verification.satisfied,
+        depth: report.depth,
+        samples: data.len(),
+        max_rel: report.errors.max_relative,
+        mean_rel: report.errors.mean_relative,
+        max_rel_all: 0.0,
+        mean_rel_all: 0.0,
+        rmse: report.errors.rmse,
+        cos_rmse: if wsum > 0.0 { (wsq / wsum).sqrt() } else { 0.0 },
+        seconds: report.seconds,
+    };
+    Ok((f, rep))
+}

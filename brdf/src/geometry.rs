@@ -1,0 +1,157 @@
+//! Directions on the hemisphere (z is the normal) and the Rusinkiewicz
+//! half/difference parametrisation.
+
+use std::f64::consts::PI;
+
+/// A 3-vector.
+pub type Vec3 = [f64; 3];
+
+/// Dot product.
+pub fn dot(a: Vec3, b: Vec3) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+/// Cross product.
+pub fn cross(a: Vec3, b: Vec3) -> Vec3 {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+/// Unit vector along `a` (unchanged if zero).
+pub fn normalize(a: Vec3) -> Vec3 {
+    let n = dot(a, a).sqrt();
+    if n > 0.0 {
+        [a[0] / n, a[1] / n, a[2] / n]
+    } else {
+        a
+    }
+}
+
+/// Direction of elevation `theta` from the normal and azimuth `phi`.
+pub fn from_spherical(theta: f64, phi: f64) -> Vec3 {
+    let (st, ct) = theta.sin_cos();
+    let (sp, cp) = phi.sin_cos();
+    [st * cp, st * sp, ct]
+}
+
+/// `(theta, phi)` of a unit direction; `theta` by a formula that stays
+/// accurate near the normal, `phi` in `(-pi, pi]`.
+pub fn to_spherical(d: Vec3) -> (f64, f64) {
+    let dist = (d[0] * d[0] + d[1] * d[1] + (d[2] - 1.0) * (d[2] - 1.0)).sqrt();
+    (2.0 * (0.5 * dist).clamp(-1.0, 1.0).asin(), d[1].atan2(d[0]))
+}
+
+/// Rotation of `v` about the unit `axis` by `angle` (Rodrigues).
+pub fn rotate(v: Vec3, axis: Vec3, angle: f64) -> Vec3 {
+    let (s, c) = angle.sin_cos();
+    let k = cross(axis, v);
+    let d = dot(axis, v) * (1.0 - c);
+    [
+        v[0] * c + k[0] * s + axis[0] * d,
+        v[1] * c + k[1] * s + axis[1] * d,
+        v[2] * c + k[2] * s + axis[2] * d,
+    ]
+}
+
+/// Rusinkiewicz coordinates of a direction pair (Rusinkiewicz 1998, as in
+/// the MERL reference code): half vector `(theta_h, phi_h)` and the incident
+/// direction seen from the half-vector frame `(theta_d, phi_d)`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HalfDiff {
+    /// Elevation of the half vector.
+    pub theta_h: f64,
+    /// Azimuth of the half vector.
+    pub phi_h: f64,
+    /// Elevation of the incident direction about the half vector.
+    pub theta_d: f64,
+    /// Azimuth of the incident direction about the half vector.
+    pub phi_d: f64,
+}
+
+impl HalfDiff {
+    /// From incident (`wi`) and outgoing (`wo`) unit directions.
+    pub fn from_directions(wi: Vec3, wo: Vec3) -> Self {
+        let h = normalize([wi[0] + wo[0], wi[1] + wo[1], wi[2] + wo[2]]);
+        let (theta_h, phi_h) = to_spherical(h);
+        let tmp = rotate(wi, [0.0, 0.0, 1.0], -phi_h);
+        let diff = rotate(tmp, [0.0, 1.0, 0.0], -theta_h);
+        let (theta_d, phi_d) = to_spherical(diff);
+        Self {
+            theta_h,
+            phi_h,
+            theta_d,
+            phi_d,
+        }
+    }
+
+    /// The direction pair `(wi, wo)`.
+    pub fn to_directions(self) -> (Vec3, Vec3) {
+        let diff = from_spherical(self.theta_d, self.phi_d);
+        let wi = rotate(
+            rotate(diff, [0.0, 1.0, 0.0], self.theta_h),
+            [0.0, 0.0, 1.0],
+            self.phi_h,
+        );
+        let h = from_spherical(self.theta_h, self.phi_h);
+        let k = 2.0 * dot(wi, h);
+        let wo = [k * h[0] - wi[0], k * h[1] - wi[1], k * h[2] - wi[2]];
+        (wi, wo)
+    }
+
+    /// `phi_d` folded into `[0, pi)`: swapping the two directions adds `pi`
+    /// to `phi_d`, so a reciprocal BRDF depends only on the folded angle.
+    pub fn folded_phi_d(self) -> f64 {
+        let p = self.phi_d.rem_euclid(PI);
+        if p >= PI {
+            0.0
+        } else {
+            p
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn round_trip_directions() {
+        for &(ti, pi_, to, po) in &[
+            (0.3, 0.1, 0.7, 2.0),
+            (1.2, -2.0, 0.2, 0.4),
+            (0.01, 0.0, 1.5, 3.0),
+            (0.9, 1.0, 0.9, 1.0 + PI),
+        ] {
+            let wi = from_spherical(ti, pi_);
+            let wo = from_spherical(to, po);
+            let hd = HalfDiff::from_directions(wi, wo);
+            let (a, b) = hd.to_directions();
+            for k in 0..3 {
+                assert!(
+                    (a[k] - wi[k]).abs() < 1e-12 && (b[k] - wo[k]).abs() < 1e-12,
+                    "{hd:?}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn swapping_directions_shifts_phi_d_by_pi() {
+        let wi = from_spherical(0.4, 0.3);
+        let wo = from_spherical(0.9, 2.1);
+        let a = HalfDiff::from_directions(wi, wo);
+        let b = HalfDiff::from_directions(wo, wi);
+        assert!((a.theta_h - b.theta_h).abs() < 1e-12 && (a.theta_d - b.theta_d).abs() < 1e-12);
+        assert!((a.folded_phi_d() - b.folded_phi_d()).abs() < 1e-12);
+    }
+
+    #[test]
+    fn mirror_configuration_has_zero_half_angle() {
+        let hd = HalfDiff::from_directions(from_spherical(0.5, 0.0), from_spherical(0.5, PI));
+        assert!(hd.theta_h.abs() < 1e-12);
+        assert!((hd.theta_d - 0.5).abs() < 1e-12);
+    }
+}

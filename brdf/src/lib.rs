@@ -1,0 +1,41 @@
+//! Measured isotropic BRDFs in, compact verified rational BRDFs out.
+//!
+//! Measured reflectance tables are large (a MERL material is 35 MB). This
+//! crate reads them (MERL binary, RGL `.bsdf`), provides analytic models
+//! with known truth, reduces the isotropic BRDF to the 2-D
+//! `rho(theta_h, theta_d)` of the paper or keeps the full 3-D
+//! `(theta_h, theta_d, phi_d)` grid, and fits each RGB channel with a
+//! rational function whose error bound holds at every sample (verified in
+//! f64 by `rational-core`).
+//!
+//! ```
+//! use brdf::{fit_brdf, BlinnPhong, Brdf, BrdfFitSettings, Reduction, from_spherical};
+//!
+//! let material = BlinnPhong { kd: [0.2, 0.3, 0.4], ks: [0.5; 3], exponent: 30.0 };
+//! let settings = BrdfFitSettings::default()
+//!     .with_reduction(Reduction::default().with_resolution(24, 24));
+//! let (fitted, report) = fit_brdf(&material, &settings)?;
+//! assert!(report.channels.iter().all(|c| c.verified));
+//! let (wi, wo) = (from_spherical(0.3, 0.0), from_spherical(0.5, 3.0));
+//! let (truth, fit) = (material.eval(wi, wo), fitted.eval(wi, wo));
+//! assert!((fit[0] / truth[0] - 1.0).abs() < 0.1);
+//! # Ok::<(), brdf::BrdfError>(())
+//! ```
+
+mod analytic;
+mod error;
+mod fitting;
+mod geometry;
+mod material;
+pub mod merl;
+mod reduce;
+pub mod rgl;
+
+pub use analytic::{schlick, AshikhminShirley, BlinnPhong, CookTorranceGgx, Lambert};
+pub use error::BrdfError;
+pub use fitting::{fit_brdf, BrdfFitReport, BrdfFitSettings, ChannelReport, FittedBrdf};
+pub use geometry::{cross, dot, from_spherical, normalize, rotate, to_spherical, HalfDiff, Vec3};
+pub use material::Brdf;
+pub use merl::{MerlBrdf, TabulateOptions};
+pub use reduce::{Coordinates, Reduction, ReductionKind, Samples};
+pub use rgl::RglBrdf;

@@ -1,0 +1,264 @@
+//! From a BRDF to interval data: the paper's 2-D reduction
+//! `rho(theta_h, theta_d)` (Romeiro et al. 2008), the spread over `phi_d` as
+//! the interval, or the full 3-D `(theta_h, theta_d, phi_d)` grid; the
+//! grazing cut; the fitting coordinates.
+
+use crate::geometry::HalfDiff;
+use crate::Brdf;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use std::f64::consts::PI;
+
+/// Which function of the isotropic BRDF is fitted.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ReductionKind {
+    /// `rho(theta_h, theta_d)` on the slice `phi_d = pi/2`.
+    Slice2d,
+    /// `rho(theta_h, theta_d)` with the interval spanning the values over
+    /// `phi_d` (widened by the relative tolerance); the value is the slice.
+    Spread2d,
+    /// The full `(theta_h, theta_d, phi_d)` table, `phi_d` folded to `[0, pi)`.
+    Full3d,
+}
+
+/// The coordinates the rational function is fitted in.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Coordinates {
+    /// `(theta_h, theta_d[, phi_d])` in radians.
+    Radians,
+    /// `(sqrt(theta_h / (pi/2)), theta_d[, phi_d])`: the MERL warp, which
+    /// spreads the specular peak.
+    SqrtThetaH,
+    /// `(cos theta_h, cos theta_d[, phi_d])`.
+    Cosines,
+}
+
+impl Coordinates {
+    /// Fitting coordinates of Rusinkiewicz angles.
+    pub fn map(self, theta_h: f64, theta_d: f64, phi_d: f64, dims: usize) -> Vec<f64> {
+        let (a, b) = match self {
+            Coordinates::Radians => (theta_h, theta_d),
+            Coordinates::SqrtThetaH => ((theta_h.max(0.0) / (PI / 2.0)).sqrt(), theta_d),
+            Coordinates::Cosines => (theta_h.cos(), theta_d.cos()),
+        };
+        if dims == 3 {
+            vec![a, b, phi_d]
+        } else {
+            vec![a, b]
+        }
+    }
+}
+
+/// How a BRDF is sampled for fitting.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Reduction {
+    /// What is fitted.
+    pub kind: ReductionKind,
+    /// Fitting coordinates.
+    pub coordinates: Coordinates,
+    /// Bins in `theta_h` (sqrt-warped like MERL's).
+    pub n_theta_h: usize,
+    /// Bins in `theta_d`.
+    pub n_theta_d: usize,
+    /// Bins in `phi_d` over `[0, pi)` (3-D and spread).
+    pub n_phi_d: usize,
+    /// Samples with `theta_d` above this many degrees are not fitted (the
+    /// paper removes those above 78).
+    pub max_theta_d_deg: f64,
+}
+
+impl Default for Reduction {
+    /// The 2-D slice on the MERL grid (90 x 90), sqrt-warped `theta_h`,
+    /// grazing `theta_d > 78` degrees cut.
+    fn default() -> Self {
+        Self {
+            kind: ReductionKind::Slice2d,
+            coordinates: Coordinates::SqrtThetaH,
+            n_theta_h: 90,
+            n_theta_d: 90,
+            n_phi_d: 180,
+            max_theta_d_deg: 78.0,
+        }
+    }
+}
+
+impl Reduction {
+    /// Sets the kind.
+    pub fn with_kind(mut self, kind: ReductionKind) -> Self {
+        self.kind = kind;
+        self
+    }
+
+    /// Sets the coordinates.
+    pub fn with_coordinates(mut self, c: Coordinates) -> Self {
+        self.coordinates = c;
+        self
+    }
+
+    /// Sets the `theta_h` and `theta_d` resolutions.
+    pub fn with_resolution(mut self, n_theta_h: usize, n_theta_d: usize) -> Self {
+        self.n_theta_h = n_theta_h.max(2);
+        self.n_theta_d = n_theta_d.max(2);
+        self
+    }
+
+    /// Sets the `phi_d` resolution.
+    pub fn with_phi_resolution(mut self, n_phi_d: usize) -> Self {
+        self.n_phi_d = n_phi_d.max(2);
+        self
+    }
+
+    /// Sets the grazing cut in degrees (90 keeps everything).
+    pub fn with_max_theta_d(mut self, degrees: f64) -> Self {
+        self.max_theta_d_deg = degrees;
+        self
+    }
+
+    /// Number of fitting coordinates.
+    pub fn dims(&self) -> usize {
+        if self.kind == ReductionKind::Full3d {
+            3
+        } else {
+            2
+        }
+    }
+
+    fn theta_h(&self, i: usize) -> f64 {
+        let u = (i as f64 + 0.5) / self.n_theta_h as f64;
+        u * u * PI / 2.0
+    }
+
+    fn theta_d(&self, j: usize) -> f64 {
+        (j as f64 + 0.5) / self.n_theta_d as f64 * PI / 2.0
+    }
+
+    fn phi_d(&self, k: usize) -> f64 {
+        (k as f64 + 0.5) / self.n_phi_d as f64 * PI
+    }
+
+    /// Samples `material` on the reduction's grid.
+    pub fn sample(&self, material: &dyn Brdf) -> Samples {
+        let dims = self.dims();
+        let mut cells = Vec::new();
+        for i in 0..self.n_theta_h {
+            for j in 0..self.n_theta_d {
+                match self.kind {
+                    ReductionKind::Full3d => {
+                        for k in 0..self.n_phi_d {
+                            cells.push((self.theta_h(i), self.theta_d(j), self.phi_d(k)));
+                        }
+                    }
+                    _ => cells.push((self.theta_h(i), self.theta_d(j), PI / 2.0)),
+                }
+            }
+        }
+        let spread = self.kind == ReductionKind::Spread2d;
+        let rows: Vec<Option<SampleRow>> = cells
+            .par_iter()
+            .map(|&(th, td, pd)| {
+                let value = eval_at(material, th, td, pd)?;
+                let (mut lo, mut hi) = (value.0, value.0);
+                if spread {
+                    for k in 0..self.n_phi_d {
+                        let v = eval_at(material, th, td, self.phi_d(k))?.0;
+                        for c in 0..3 {
+                            lo[c] = lo[c].min(v[c]);
+                            hi[c] = hi[c].max(v[c]);
+                        }
+                    }
+                }
+                Some(SampleRow {
+                    point: self.coordinates.map(th, td, pd, dims),
+                    angles: [th, td, pd],
+                    value: value.0,
+                    lo,
+                    hi,
+                    cos_weight: value.1,
+                    grazing: td.to_degrees() > self.max_theta_d_deg,
+                })
+            })
+            .collect();
+        let rows: Vec<SampleRow> = rows.into_iter().flatten().collect();
+        Samples { dims, rows }
+    }
+}
+
+/// The BRDF at Rusinkiewicz angles (with `phi_h = 0`) and `cos_i cos_o`;
+/// `None` below the horizon.
+fn eval_at(material: &dyn Brdf, theta_h: f64, theta_d: f64, phi_d: f64) -> Option<([f64; 3], f64)> {
+    let (wi, wo) = HalfDiff {
+        theta_h,
+        phi_h: 0.0,
+        theta_d,
+        phi_d,
+    }
+    .to_directions();
+    if wi[2] <= 1e-9 || wo[2] <= 1e-9 {
+        return None;
+    }
+    Some((material.eval(wi, wo), wi[2] * wo[2]))
+}
+
+/// One sampled cell.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SampleRow {
+    /// Fitting coordinates.
+    pub point: Vec<f64>,
+    /// `(theta_h, theta_d, phi_d)` of the cell.
+    pub angles: [f64; 3],
+    /// RGB value.
+    pub value: [f64; 3],
+    /// Lower end of the spread (equal to `value` unless spread).
+    pub lo: [f64; 3],
+    /// Upper end of the spread.
+    pub hi: [f64; 3],
+    /// `cos theta_i cos theta_o` of the cell's direction pair.
+    pub cos_weight: f64,
+    /// Beyond the grazing cut.
+    pub grazing: bool,
+}
+
+/// A sampled BRDF.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Samples {
+    /// Number of fitting coordinates.
+    pub dims: usize,
+    /// Cells above the horizon.
+    pub rows: Vec<SampleRow>,
+}
+
+impl Samples {
+    /// Interval data of channel `c` with relative tolerance `t`, from the
+    /// non-grazing cells with a positive, finite value (missing cells and
+    /// non-positive values are never fitted); also returns the rows used.
+    pub fn channel(
+        &self,
+        c: usize,
+        t: f64,
+    ) -> Result<(rational_core::IntervalData, Vec<usize>), rational_core::FitError> {
+        let used: Vec<usize> = (0..self.rows.len())
+            .filter(|&i| {
+                let r = &self.rows[i];
+                !r.grazing && r.value[c].is_finite() && r.value[c] > 0.0 && r.lo[c] > 0.0
+            })
+            .collect();
+        let points = used
+            .iter()
+            .flat_map(|&i| self.rows[i].point.clone())
+            .collect();
+        let lo = used
+            .iter()
+            .map(|&i| self.rows[i].lo[c] * (1.0 - t))
+            .collect();
+        let hi = used
+            .iter()
+            .map(|&i| self.rows[i].hi[c] * (1.0 + t))
+            .collect();
+        let values = used.iter().map(|&i| self.rows[i].value[c]).collect();
+        let data =
+            rational_core::IntervalData::new(self.dims, points, lo, hi)?.with_values(values)?;
+        Ok((data, used))
+    }
+}

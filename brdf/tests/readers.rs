@@ -1,0 +1,200 @@
+//! Readers against real data and hand-made files: RGL files agree with an
+//! independent renderer; MERL files round-trip exactly; malformed files get
+//! clear errors.
+
+use brdf::merl::{self, MerlBrdf, TabulateOptions};
+use brdf::{from_spherical, BlinnPhong, Brdf, CookTorranceGgx, RglBrdf};
+use std::path::{Path, PathBuf};
+
+fn data_dir() -> Option<PathBuf> {
+    let dir = std::env::var_os("RATFIT_DATA")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/data"));
+    dir.is_dir().then_some(dir)
+}
+
+fn scratch(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("ratfit-brdf-{}-{name}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// Relative error of our RGL evaluation against Mitsuba's values, per file:
+/// the median over all pairs, and the largest over pairs away from grazing
+/// angles (both elevations below 80 degrees) and away from tiny values
+/// (below 1e-3 of the file's peak, where float cancellation dominates).
+#[test]
+fn rgl_files_agree_with_the_reference_renderer() {
+    let Some(dir) = data_dir() else {
+        eprintln!("SKIPPED rgl_files_agree_with_the_reference_renderer: no data directory (set RATFIT_DATA)");
+        return;
+    };
+    let mut files: Vec<_> = std::fs::read_dir(dir.join("rgl"))
+        .unwrap()
+        .flatten()
+        .map(|e| e.path())
+        .collect();
+    files.retain(|p| p.extension().is_some_and(|e| e == "bsdf"));
+    files.sort();
+    assert!(!files.is_empty());
+    for path in files {
+        let stem = path.file_stem().unwrap().to_string_lossy().to_string();
+        let reference = dir.join("rgl/reference").join(format!("{stem}.csv"));
+        if !reference.exists() {
+            eprintln!("{stem}: no reference values, skipped");
+            continue;
+        }
+        let m = RglBrdf::read(&path).unwrap();
+        let text = std::fs::read_to_string(&reference).unwrap();
+        let rows: Vec<Vec<f64>> = text
+            .lines()
+            .skip(1)
+            .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
+            .collect();
+        let peak = rows
+            .iter()
+            .flat_map(|r| r[4..7].iter().copied())
+            .fold(0.0_f64, f64::max);
+        let mut errs = Vec::new();
+        let mut worst = 0.0_f64;
+        for r in &rows {
+            let wi = from_spherical(r[0], r[1]);
+            let wo = from_spherical(r[2], r[3]);
+            let v = m.eval(wi, wo);
+            for c in 0..3 {
+                let want = r[4 + c];
+                if want.abs() < 1e-3 * peak {
+                    continue;
+                }
+                let e = (v[c] - want).abs() / want.abs();
+                errs.push(e);
+                if r[0] < 80f64.to_radians() && r[2] < 80f64.to_radians() {
+                    worst = worst.max(e);
+                }
+            }
+        }
+        errs.sort_by(f64::total_cmp);
+        let median = errs[errs.len() / 2];
+        eprintln!("{stem}: {} values, median relative error {median:.2e}, max away from grazing {worst:.2e}", errs.len());
+        assert!(median < 1e-5, "{stem}: median relative error {median:.2e}");
+        assert!(worst < 2e-4, "{stem}: max relative error {worst:.2e}");
+    }
+}
+
+#[test]
+fn merl_files_round_trip_exactly() {
+    let dir = scratch("merl");
+    let m = MerlBrdf::tabulate(
+        &CookTorranceGgx {
+            kd: [0.1, 0.2, 0.3],
+            f0: [0.04; 3],
+            alpha: 0.2,
+        },
+        TabulateOptions {
+            noise: 0.01,
+            seed: 7,
+            missing_above_theta_d_deg: Some(85.0),
+        },
+    );
+    let p = dir.join("a.binary");
+    m.write(&p).unwrap();
+    assert_eq!(
+        std::fs::metadata(&p).unwrap().len() as usize,
+        merl::FILE_SIZE
+    );
+    let back = MerlBrdf::read(&p).unwrap();
+    // Exact up to the channel scale's own rounding (value / s * s).
+    for (i_h, i_d, i_p) in [(0, 0, 0), (10, 20, 30), (89, 84, 179), (45, 89, 90)] {
+        let (a, b) = (m.cell(i_h, i_d, i_p), back.cell(i_h, i_d, i_p));
+        for c in 0..3 {
+            match (a[c], b[c]) {
+                (Some(x), Some(y)) => assert!((x - y).abs() <= 4.0 * f64::EPSILON * x.abs()),
+                (None, None) => {}
+                other => panic!("cell ({i_h},{i_d},{i_p}) channel {c}: {other:?}"),
+            }
+        }
+    }
+    assert!(
+        back.cell(45, 89, 90)[0].is_none(),
+        "grazing cells stay missing"
+    );
+    // Writing the read file reproduces the bytes.
+    assert_eq!(std::fs::read(&p).unwrap(), back.to_bytes());
+    std::fs::remove_dir_all(dir).ok();
+}
+
+#[test]
+fn merl_lookup_reproduces_the_tabulated_material() {
+    let mat = BlinnPhong {
+        kd: [0.2, 0.3, 0.4],
+        ks: [0.4; 3],
+        exponent: 20.0,
+    };
+    let m = MerlBrdf::tabulate(&mat, TabulateOptions::default());
+    // At a cell centre the lookup returns the value tabulated there.
+    let (th, td, pd) = merl::cell_center(30, 40, 50);
+    let (wi, wo) = brdf::HalfDiff {
+        theta_h: th,
+        phi_h: 0.7,
+        theta_d: td,
+        phi_d: pd,
+    }
+    .to_directions();
+    let (a, b) = (m.eval(wi, wo), mat.eval(wi, wo));
+    for c in 0..3 {
+        assert!((a[c] / b[c] - 1.0).abs() < 1e-9, "{a:?} vs {b:?}");
+    }
+}
+
+#[test]
+fn malformed_files_give_clear_errors() {
+    let dir = scratch("bad");
+    let p = dir.join("short.binary");
+    let mut bytes = MerlBrdf::tabulate(
+        &brdf::Lambert { albedo: [0.5; 3] },
+        TabulateOptions::default(),
+    )
+    .to_bytes();
+    bytes.truncate(1000);
+    std::fs::write(&p, &bytes).unwrap();
+    let e = MerlBrdf::read(&p).unwrap_err().to_string();
+    assert!(e.contains("truncated") && e.contains("34992012"), "{e}");
+    bytes[0] = 7;
+    std::fs::write(&p, &bytes).unwrap();
+    assert!(MerlBrdf::read(&p)
+        .unwrap_err()
+        .to_string()
+        .contains("dimensions"));
+    let mut nan = MerlBrdf::tabulate(
+        &brdf::Lambert { albedo: [0.5; 3] },
+        TabulateOptions::default(),
+    )
+    .to_bytes();
+    nan[100..108].copy_from_slice(&f64::NAN.to_le_bytes());
+    std::fs::write(&p, &nan).unwrap();
+    assert!(MerlBrdf::read(&p)
+        .unwrap_err()
+        .to_string()
+        .contains("not finite"));
+    assert!(MerlBrdf::read(Path::new("/nonexistent/x.binary")).is_err());
+    let q = dir.join("x.bsdf");
+    std::fs::write(&q, b"tensor_file\0\x01\x00\x00\x00\x00\x00").unwrap();
+    assert!(RglBrdf::read(&q)
+        .unwrap_err()
+        .to_string()
+        .contains("no `theta_i` field"));
+    std::fs::remove_dir_all(dir).ok();
+}
+
+#[test]
+fn merl_checksum_list_parses() {
+    let Some(dir) = data_dir() else {
+        eprintln!("SKIPPED merl_checksum_list_parses: no data directory");
+        return;
+    };
+    let list = merl::read_checksums(&dir.join("merl/MERL_CHECKSUMS.tsv")).unwrap();
+    assert_eq!(list.len(), 100);
+    assert!(list
+        .iter()
+        .all(|k| k.size as usize == merl::FILE_SIZE && k.sha256.len() == 64));
+}
