@@ -14,16 +14,19 @@ use std::time::Instant;
 pub struct BrdfFitSettings {
     reduction: Reduction,
     rel_tol: f64,
+    noise_floor: f64,
     fit: FitSettings,
 }
 
 impl Default for BrdfFitSettings {
-    /// The 2-D slice on the MERL grid, relative intervals of 5%, budgets up
-    /// to 60 coefficients per channel, rational-core's other defaults.
+    /// The 2-D slice on the MERL grid, relative intervals of 5% with a noise
+    /// floor of 1% of the channel's median value, budgets up to 60
+    /// coefficients per channel, rational-core's other defaults.
     fn default() -> Self {
         Self {
             reduction: Reduction::default(),
             rel_tol: 0.05,
+            noise_floor: 1e-2,
             fit: FitSettings::default()
                 .with_coeff_range(2, 60)
                 .expect("valid range"),
@@ -50,6 +53,24 @@ impl BrdfFitSettings {
             });
         }
         self.rel_tol = t;
+        Ok(self)
+    }
+
+    /// Smallest interval half-width, as a fraction of the channel's median
+    /// value: a measurement's noise floor. Relative intervals alone ask the
+    /// fit to follow noise at a millionth of the peak (real tables have such
+    /// tails).
+    ///
+    /// # Errors
+    /// Negative, not finite, or 1 and above.
+    pub fn with_noise_floor(mut self, floor: f64) -> Result<Self, BrdfError> {
+        if !(0.0..1.0).contains(&floor) {
+            return Err(BrdfError::Invalid {
+                name: "noise floor",
+                reason: format!("{floor} is not in [0, 1)"),
+            });
+        }
+        self.noise_floor = floor;
         Ok(self)
     }
 
@@ -150,9 +171,13 @@ pub struct ChannelReport {
     pub depth: f64,
     /// Samples fitted.
     pub samples: usize,
-    /// Max relative error on the fitted samples.
+    /// Fitted samples above the noise floor (relative intervals).
+    pub samples_above_floor: usize,
+    /// The noise floor in the channel's units.
+    pub noise_floor_abs: f64,
+    /// Max relative error on the fitted samples above the noise floor.
     pub max_rel: f64,
-    /// Mean relative error on the fitted samples.
+    /// Mean relative error on the fitted samples above the noise floor.
     pub mean_rel: f64,
     /// Max relative error on every valid sample, grazing ones included
     /// (evaluated with `theta_d` clamped to the fitted range).
@@ -176,6 +201,8 @@ pub struct BrdfFitReport {
     pub reduction: Reduction,
     /// Relative half-width of the intervals.
     pub rel_tol: f64,
+    /// Smallest half-width as a fraction of each channel's median value.
+    pub noise_floor: f64,
     /// Per channel.
     pub channels: Vec<ChannelReport>,
     /// Total wall time, sampling included.
@@ -187,26 +214,28 @@ impl fmt::Display for BrdfFitReport {
         let r = &self.reduction;
         writeln!(
             f,
-            "{}: {:?} in {:?} coordinates, theta_d <= {} deg, intervals +-{}%",
+            "{}: {:?} in {:?} coordinates, theta_d <= {} deg, intervals +-{}% (noise floor {:e} of the median)",
             self.material,
             r.kind,
             r.coordinates,
             r.max_theta_d_deg,
-            self.rel_tol * 100.0
+            self.rel_tol * 100.0,
+            self.noise_floor
         )?;
         writeln!(
             f,
-            "  ch  n_p n_q  bytes  samples  verified   max rel  mean rel  max rel*  mean rel*      RMSE   cos-RMSE    time s"
+            "  ch  n_p n_q  bytes  samples (>floor)  verified   max rel  mean rel  max rel*  mean rel*      RMSE   cos-RMSE    time s"
         )?;
         for c in &self.channels {
             writeln!(
                 f,
-                "  {}   {:>3} {:>3} {:>6} {:>8}  {:>8} {:>9.3e} {:>9.3e} {:>9.3e} {:>10.3e} {:>9.3e} {:>10.3e} {:>9.3}",
+                "  {}   {:>3} {:>3} {:>6} {:>7} ({:>7})  {:>8} {:>9.3e} {:>9.3e} {:>9.3e} {:>10.3e} {:>9.3e} {:>10.3e} {:>9.3}",
                 c.channel,
                 c.n_p,
                 c.n_q,
                 c.bytes_f32,
                 c.samples,
+                c.samples_above_floor,
                 if c.verified { "yes" } else { "NO" },
                 c.max_rel,
                 c.mean_rel,
@@ -219,7 +248,7 @@ impl fmt::Display for BrdfFitReport {
         }
         write!(
             f,
-            "  * every valid sample, grazing ones included; total wall time {:.3} s",
+            "  relative errors over samples above the noise floor; * also grazing ones (theta_d clamped to the cut)\n  total wall time {:.3} s",
             self.seconds
         )
     }
@@ -236,9 +265,35 @@ pub fn fit_brdf(
 ) -> Result<(FittedBrdf, BrdfFitReport), BrdfError> {
     let start = Instant::now();
     let samples = settings.reduction.sample(material);
+    let (fitted, mut report) = fit_samples(&samples, &material.name(), settings)?;
+    report.seconds = start.elapsed().as_secs_f64();
+    Ok((fitted, report))
+}
+
+/// Fits already sampled data (a grid from [`Reduction::sample`] or scattered
+/// measurements) in the reduction of `settings`.
+///
+/// # Errors
+/// As [`fit_brdf`].
+pub fn fit_samples(
+    samples: &Samples,
+    name: &str,
+    settings: &BrdfFitSettings,
+) -> Result<(FittedBrdf, BrdfFitReport), BrdfError> {
+    let start = Instant::now();
+    if samples.dims != settings.reduction.dims() {
+        return Err(BrdfError::Invalid {
+            name: "samples",
+            reason: format!(
+                "{}-D samples for a {}-D reduction",
+                samples.dims,
+                settings.reduction.dims()
+            ),
+        });
+    }
     let results: Vec<Result<(RationalFunction, ChannelReport), BrdfError>> = (0..3)
         .into_par_iter()
-        .map(|c| fit_channel(&samples, c, settings))
+        .map(|c| fit_channel(samples, c, settings))
         .collect();
     let mut channels = Vec::with_capacity(3);
     let mut reports = Vec::with_capacity(3);
@@ -250,15 +305,16 @@ pub fn fit_brdf(
     let fitted = FittedBrdf {
         reduction: settings.reduction,
         channels,
-        name: material.name(),
+        name: name.to_string(),
     };
-    // Errors over every valid sample, grazing ones included.
+    // Errors over every valid sample above the floor, grazing ones included.
     for (c, rep) in reports.iter_mut().enumerate() {
         let (mut max, mut sum, mut n) = (0.0_f64, 0.0, 0usize);
+        let floor = rep.noise_floor_abs / settings.rel_tol;
         for row in samples
             .rows
             .iter()
-            .filter(|r| r.value[c] > 0.0 && r.value[c].is_finite())
+            .filter(|r| r.value[c] > floor && r.value[c].is_finite())
         {
             let r = &settings.reduction;
             let [th, td, pd] = row.angles;
@@ -274,9 +330,10 @@ pub fn fit_brdf(
         rep.mean_rel_all = if n > 0 { sum / n as f64 } else { 0.0 };
     }
     let report = BrdfFitReport {
-        material: material.name(),
+        material: name.to_string(),
         reduction: settings.reduction,
         rel_tol: settings.rel_tol,
+        noise_floor: settings.noise_floor,
         channels: reports,
         seconds: start.elapsed().as_secs_f64(),
     };
@@ -290,16 +347,30 @@ fn fit_channel(
 ) -> Result<(RationalFunction, ChannelReport), BrdfError> {
     let channel = ['r', 'g', 'b'][c];
     let (data, used) = samples
-        .channel(c, s.rel_tol)
+        .channel(c, s.rel_tol, s.noise_floor)
         .map_err(|e| BrdfError::Fit { channel, source: e })?;
     let report = fit(&data, &s.fit).map_err(|e| BrdfError::Fit { channel, source: e })?;
     let f = report.function.clone();
     let (mut wsum, mut wsq) = (0.0, 0.0);
+    // Relative errors over the samples whose interval is relative (above the
+    // noise floor); below it the bound is absolute.
+    let (mut max_rel, mut sum_rel, mut n_rel) = (0.0_f64, 0.0, 0usize);
+    let mut floor_abs = 0.0_f64;
     for (k, &i) in used.iter().enumerate() {
         let row = &samples.rows[i];
-        let e = f.eval(data.point(k)) - row.value[c];
+        let v = row.value[c];
+        let fv = f.eval(data.point(k));
+        let e = fv - v;
         wsum += row.cos_weight;
         wsq += row.cos_weight * e * e;
+        let relative_bound = s.rel_tol * row.lo[c].min(v);
+        if v - data.lo()[k] > relative_bound * (1.0 + 1e-12) {
+            floor_abs = floor_abs.max(v - data.lo()[k]);
+        } else {
+            max_rel = max_rel.max((e / v).abs());
+            sum_rel += (e / v).abs();
+            n_rel += 1;
+        }
     }
     let rep = ChannelReport {
         channel,
@@ -309,8 +380,14 @@ fn fit_channel(
         verified: report.verification.satisfied,
         depth: report.depth,
         samples: data.len(),
-        max_rel: report.errors.max_relative,
-        mean_rel: report.errors.mean_relative,
+        samples_above_floor: n_rel,
+        noise_floor_abs: floor_abs,
+        max_rel,
+        mean_rel: if n_rel > 0 {
+            sum_rel / n_rel as f64
+        } else {
+            0.0
+        },
         max_rel_all: 0.0,
         mean_rel_all: 0.0,
         rmse: report.errors.rmse,

@@ -22,7 +22,9 @@
 //! # Ok::<(), brdf::BrdfError>(())
 //! ```
 
+mod alta_rational;
 mod analytic;
+pub mod compact;
 mod error;
 mod fitting;
 mod geometry;
@@ -30,12 +32,19 @@ mod material;
 pub mod merl;
 mod reduce;
 pub mod rgl;
+mod scattered;
+pub mod shader;
 
+pub use alta_rational::{AltaChannel, AltaRational};
 pub use analytic::{schlick, AshikhminShirley, BlinnPhong, CookTorranceGgx, Lambert};
+pub use compact::{CompactBrdf, CompactChannel};
 pub use error::BrdfError;
-pub use fitting::{fit_brdf, BrdfFitReport, BrdfFitSettings, ChannelReport, FittedBrdf};
+pub use fitting::{
+    fit_brdf, fit_samples, BrdfFitReport, BrdfFitSettings, ChannelReport, FittedBrdf,
+};
 pub use geometry::{cross, dot, from_spherical, normalize, rotate, to_spherical, HalfDiff, Vec3};
 pub use material::Brdf;
 pub use merl::{MerlBrdf, TabulateOptions};
 pub use reduce::{Coordinates, Reduction, ReductionKind, Samples};
 pub use rgl::RglBrdf;
+pub use scattered::{cie_xyz, spectrum_to_rgb, xyz_to_linear_srgb, AltaData, ScatteredBrdf};

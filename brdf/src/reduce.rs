@@ -230,13 +230,20 @@ pub struct Samples {
 }
 
 impl Samples {
-    /// Interval data of channel `c` with relative tolerance `t`, from the
+    /// Interval data of channel `c`: half-width `max(t |v|, floor * median)`
+    /// (relative intervals with a noise floor, `median` the channel's median
+    /// fitted value, robust to specular peaks; `floor = 0` gives purely
+    /// relative intervals), from the
     /// non-grazing cells with a positive, finite value (missing cells and
     /// non-positive values are never fitted); also returns the rows used.
+    ///
+    /// # Errors
+    /// No usable sample, or invalid values.
     pub fn channel(
         &self,
         c: usize,
         t: f64,
+        floor: f64,
     ) -> Result<(rational_core::IntervalData, Vec<usize>), rational_core::FitError> {
         let used: Vec<usize> = (0..self.rows.len())
             .filter(|&i| {
@@ -244,17 +251,20 @@ impl Samples {
                 !r.grazing && r.value[c].is_finite() && r.value[c] > 0.0 && r.lo[c] > 0.0
             })
             .collect();
+        let mut sorted: Vec<f64> = used.iter().map(|&i| self.rows[i].value[c]).collect();
+        sorted.sort_by(f64::total_cmp);
+        let median = sorted.get(sorted.len() / 2).copied().unwrap_or(0.0);
         let points = used
             .iter()
             .flat_map(|&i| self.rows[i].point.clone())
             .collect();
         let lo = used
             .iter()
-            .map(|&i| self.rows[i].lo[c] * (1.0 - t))
+            .map(|&i| self.rows[i].lo[c] - (t * self.rows[i].lo[c]).max(floor * median))
             .collect();
         let hi = used
             .iter()
-            .map(|&i| self.rows[i].hi[c] * (1.0 + t))
+            .map(|&i| self.rows[i].hi[c] + (t * self.rows[i].hi[c]).max(floor * median))
             .collect();
         let values = used.iter().map(|&i| self.rows[i].value[c]).collect();
         let data =

@@ -198,3 +198,58 @@ fn merl_checksum_list_parses() {
         .iter()
         .all(|k| k.size as usize == merl::FILE_SIZE && k.sha256.len() == 64));
 }
+
+#[test]
+fn alta_rational_function_loads_and_evaluates() {
+    let Some(dir) = data_dir() else {
+        eprintln!("SKIPPED alta_rational_function_loads_and_evaluates: no data directory");
+        return;
+    };
+    let f = brdf::AltaRational::read(&dir.join("alta/rational-example-01.brdf")).unwrap();
+    assert_eq!(f.dim_in, 2);
+    assert_eq!(f.param_in, "STARK_2D");
+    assert_eq!(f.channels.len(), 3);
+    for c in &f.channels {
+        assert_eq!((c.numerator.len(), c.denominator.len()), (100, 50));
+    }
+    // Gold metallic paint: positive and finite inside its domain.
+    for &x in &[[0.1, 0.2], [0.5, 0.5], [0.9, 0.3]] {
+        for c in &f.channels {
+            let v = c.eval(&x);
+            assert!(v.is_finite() && v > 0.0, "{x:?}: {v}");
+        }
+    }
+    // Malformed: a truncated file is refused with its reason.
+    let text = std::fs::read_to_string(dir.join("alta/rational-example-01.brdf")).unwrap();
+    let cut: String = text.lines().take(120).collect::<Vec<_>>().join("\n");
+    let d = scratch("alta");
+    std::fs::write(d.join("cut.brdf"), cut).unwrap();
+    let e = brdf::AltaRational::read(&d.join("cut.brdf"))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("coefficients"), "{e}");
+    std::fs::remove_dir_all(d).ok();
+}
+
+#[test]
+fn alta_and_cornell_data_load() {
+    let Some(dir) = data_dir() else {
+        eprintln!("SKIPPED alta_and_cornell_data_load: no data directory");
+        return;
+    };
+    let a = brdf::AltaData::read(&dir.join("alta/pink-felt-1d.alta")).unwrap();
+    assert_eq!((a.dim_in, a.dim_out, a.rows.len()), (1, 3, 90));
+    let r = brdf::AltaData::read(&dir.join("alta/retro-3M-jaune.dat")).unwrap();
+    assert_eq!((r.dim_in, r.dim_out), (3, 1));
+    assert!(r.rows.len() > 7000);
+    for name in ["acryl_blue", "cayman", "garnet_red"] {
+        let c =
+            brdf::ScatteredBrdf::read_cornell(&dir.join(format!("cornell/{name}.brdf"))).unwrap();
+        assert!(c.samples.len() > 1000, "{name}");
+        // Spectral to RGB keeps luminance non-negative for reflectance spectra.
+        assert!(c
+            .samples
+            .iter()
+            .all(|s| 0.2126 * s.2[0] + 0.7152 * s.2[1] + 0.0722 * s.2[2] >= -1e-12));
+    }
+}

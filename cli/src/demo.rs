@@ -1,8 +1,10 @@
 //! `ratfit demo`: the main job on built-in data with a known truth.
 
 use anyhow::Result;
+use brdf::{fit_brdf, BrdfFitSettings, CookTorranceGgx, MerlBrdf, TabulateOptions};
 use rational_core::{fit, FitSettings, IntervalData};
 use std::f64::consts::PI;
+use std::path::Path;
 
 /// Blinn-Phong-like lobe over the half angle (radians), exponent `n`.
 fn lobe(theta_h: f64, n: f64) -> f64 {
@@ -14,7 +16,8 @@ fn fresnel(theta_d: f64) -> f64 {
     0.04 + 0.96 * (1.0 - theta_d.cos()).powi(5)
 }
 
-pub fn run() -> Result<()> {
+/// The engine alone on steep 1-D and 2-D functions.
+pub fn run_engine() -> Result<()> {
     println!(
         "ratfit demo: rational fits of steep specular-like functions, every fit verified in f64\n"
     );
@@ -51,5 +54,44 @@ pub fn run() -> Result<()> {
     );
     let report2 = fit(&data2, &FitSettings::default().with_coeff_range(2, 60)?)?;
     println!("{report2}");
+    Ok(())
+}
+
+/// The main job on a built-in "measured" material.
+pub fn run_brdf(out: &Path) -> Result<()> {
+    let truth = CookTorranceGgx {
+        kd: [0.03, 0.08, 0.25],
+        f0: [0.04; 3],
+        alpha: 0.12,
+    };
+    let options = TabulateOptions {
+        noise: 0.01,
+        seed: 2012,
+        missing_above_theta_d_deg: Some(85.0),
+    };
+    println!(
+        "ratfit demo: {} tabulated on the MERL grid (90 x 90 x 180 cells) with 1% noise, cells with theta_d > 85 deg missing\n",
+        brdf::Brdf::name(&truth)
+    );
+    let measured = MerlBrdf::tabulate(&truth, options);
+    let settings = BrdfFitSettings::default();
+    let (fitted, report) = fit_brdf(&measured, &settings)?;
+    println!("{report}");
+    println!(
+        "  representation: {} coefficients, {} bytes as f32 (the MERL table: {} bytes)",
+        fitted.coefficients(),
+        fitted.byte_size_f32(),
+        brdf::merl::FILE_SIZE
+    );
+    let size = 256;
+    let lights = crate::sphere::default_lights();
+    let img = crate::sphere::render(&measured, &fitted, size, &lights);
+    std::fs::create_dir_all(out)?;
+    let path = out.join("demo-sphere.png");
+    crate::png::write_linear(&path, size, size, &img)?;
+    println!(
+        "  wrote {} (left: measured table, right: rational fit)",
+        path.display()
+    );
     Ok(())
 }

@@ -1,9 +1,12 @@
 //! `ratfit`: fit data with rational functions inside error bounds.
 
+mod brdf_cmd;
 mod csv;
 mod demo;
 mod npy;
+mod png;
 mod progress;
+mod sphere;
 
 use anyhow::{bail, Context, Result};
 use clap::{Args, Parser, Subcommand};
@@ -39,13 +42,31 @@ enum Command {
         #[arg(short = 'o', long = "output")]
         output: PathBuf,
     },
-    /// Evaluate a fit at points (CSV, x_1..x_d per row); prints one value per row.
+    /// Fit a measured BRDF (each RGB channel) and print the error report.
+    Fit(brdf_cmd::FitArgs),
+    /// Evaluate a fit: at points (CSV x_1..x_d, for `fit-csv` fits; one value
+    /// per row) or at direction pairs (CSV theta_i,phi_i,theta_o,phi_o, for
+    /// `fit` fits; r,g,b per row).
     Eval {
-        /// A fit written by `fit-csv`.
+        /// A fit written by `fit-csv` or `fit`.
         fit: PathBuf,
         /// Points, one per row.
+        #[arg(long, conflicts_with = "directions")]
+        points: Option<PathBuf>,
+        /// Direction pairs in radians (z is the normal), one per row.
         #[arg(long)]
-        points: PathBuf,
+        directions: Option<PathBuf>,
+    },
+    /// Export a BRDF fit: shader source (wgsl, glsl) or the compact f32 binary.
+    Export {
+        /// A fit written by `ratfit fit`.
+        fit: PathBuf,
+        /// wgsl, glsl or binary.
+        #[arg(long)]
+        to: String,
+        /// Output file (default: standard output for shader source).
+        #[arg(short = 'o', long = "output")]
+        output: Option<PathBuf>,
     },
     /// Write G and h of one P(n_p, n_q) instance as .npy files.
     DumpQp {
@@ -61,8 +82,17 @@ enum Command {
         #[arg(long)]
         out: PathBuf,
     },
-    /// Fit built-in steep specular-like functions in 1-D and 2-D and print the reports.
-    Demo,
+    /// Fit a built-in "measured" material (an analytic BRDF tabulated on the
+    /// MERL grid with noise and missing grazing cells), print the report and
+    /// write a sphere render: data on the left, fit on the right.
+    Demo {
+        /// Instead, fit steep specular-like 1-D and 2-D functions (the engine alone).
+        #[arg(long)]
+        engine: bool,
+        /// Folder for the picture.
+        #[arg(long, default_value = ".")]
+        out: PathBuf,
+    },
     /// List the solver backends compiled into this build.
     Backends,
 }
@@ -178,12 +208,11 @@ impl DataArgs {
     }
 }
 
-fn load_function(path: &Path) -> Result<RationalFunction> {
-    let text =
-        std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
-    let value: serde_json::Value =
-        serde_json::from_str(&text).with_context(|| format!("{} is not JSON", path.display()))?;
-    let f = value.get("function").cloned().unwrap_or(value);
+fn load_function(value: &serde_json::Value, path: &Path) -> Result<RationalFunction> {
+    let f = value
+        .get("function")
+        .cloned()
+        .unwrap_or_else(|| value.clone());
     serde_json::from_value(f)
         .with_context(|| format!("{} does not hold a rational function", path.display()))
 }
@@ -210,8 +239,26 @@ fn main() -> Result<()> {
                 .with_context(|| format!("cannot write {}", output.display()))?;
             eprintln!("wrote {}", output.display());
         }
-        Command::Eval { fit: path, points } => {
-            let f = load_function(&path)?;
+        Command::Fit(args) => brdf_cmd::run_fit(args)?,
+        Command::Eval {
+            fit: path,
+            points,
+            directions,
+        } => {
+            let text = std::fs::read_to_string(&path)
+                .with_context(|| format!("cannot read {}", path.display()))?;
+            let value: serde_json::Value = serde_json::from_str(&text)
+                .with_context(|| format!("{} is not JSON", path.display()))?;
+            if let Some(fitted) = brdf_cmd::load_fitted(&value) {
+                let dirs = directions.context("a BRDF fit is evaluated at --directions")?;
+                print!(
+                    "{}",
+                    brdf_cmd::eval_directions(&fitted?, &csv::read_numeric(&dirs)?)?
+                );
+                return Ok(());
+            }
+            let f = load_function(&value, &path)?;
+            let points = points.context("a fit-csv fit is evaluated at --points")?;
             let rows = csv::read_numeric(&points)?;
             if rows[0].len() != f.dim() {
                 bail!(
@@ -226,6 +273,41 @@ fn main() -> Result<()> {
                 out.push_str(&format!("{:e}\n", f.eval(r)));
             }
             print!("{out}");
+        }
+        Command::Export {
+            fit: path,
+            to,
+            output,
+        } => {
+            let text = std::fs::read_to_string(&path)
+                .with_context(|| format!("cannot read {}", path.display()))?;
+            let value: serde_json::Value = serde_json::from_str(&text)
+                .with_context(|| format!("{} is not JSON", path.display()))?;
+            let fitted = brdf_cmd::load_fitted(&value).with_context(|| {
+                format!(
+                    "{} is not a BRDF fit (write one with `ratfit fit`)",
+                    path.display()
+                )
+            })??;
+            let compact = brdf::CompactBrdf::from_fitted(&fitted);
+            let bytes =
+                match to.as_str() {
+                    "wgsl" => brdf::shader::shader_source(&compact, brdf::shader::Language::Wgsl)
+                        .into_bytes(),
+                    "glsl" => brdf::shader::shader_source(&compact, brdf::shader::Language::Glsl)
+                        .into_bytes(),
+                    "binary" => compact.to_bytes(),
+                    other => bail!("unknown export `{other}` (wgsl, glsl, binary)"),
+                };
+            match output {
+                Some(o) => {
+                    std::fs::write(&o, &bytes)
+                        .with_context(|| format!("cannot write {}", o.display()))?;
+                    eprintln!("wrote {} ({} bytes)", o.display(), bytes.len());
+                }
+                None if to == "binary" => bail!("give -o FILE for binary output"),
+                None => print!("{}", String::from_utf8_lossy(&bytes)),
+            }
         }
         Command::DumpQp {
             data,
@@ -258,7 +340,13 @@ fn main() -> Result<()> {
                 p.cols()
             );
         }
-        Command::Demo => demo::run()?,
+        Command::Demo { engine, out } => {
+            if engine {
+                demo::run_engine()?
+            } else {
+                demo::run_brdf(&out)?
+            }
+        }
         Command::Backends => {
             for b in Backend::ALL {
                 println!(

@@ -165,8 +165,8 @@ fn missing_backend_is_named() {
 }
 
 #[test]
-fn demo_runs_and_verifies() {
-    let out = ratfit().arg("demo").output().unwrap();
+fn engine_demo_runs_and_verifies() {
+    let out = ratfit().args(["demo", "--engine"]).output().unwrap();
     assert!(
         out.status.success(),
         "{}",
@@ -174,4 +174,20 @@ fn demo_runs_and_verifies() {
     );
     let text = String::from_utf8_lossy(&out.stdout);
     assert_eq!(text.matches("verified            yes").count(), 2, "{text}");
+}
+
+#[test]
+fn brdf_demo_fits_renders_and_exports() {
+    let dir = scratch("demo");
+    let out = ratfit().args(["demo", "--out"]).arg(&dir).output().unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(text.matches("       yes ").count(), 3, "{text}");
+    let png = std::fs::read(dir.join("demo-sphere.png")).unwrap();
+    assert!(png.starts_with(b"\x89PNG"));
+    std::fs::remove_dir_all(dir).ok();
 }

@@ -1,0 +1,194 @@
+//! ALTA's rational function files (`#FUNC rational_function`): for each
+//! output channel, `#MIN`/`#MAX` of the input domain, `#NP`/`#NQ`, then one
+//! line per coefficient (the multi-index of its tensor Chebyshev polynomial,
+//! then the value), numerator first. Inputs are mapped from `[MIN, MAX]` to
+//! `[-1, 1]` per coordinate, as in ALTA's `rational_function_chebychev`.
+
+use crate::BrdfError;
+use std::path::Path;
+
+/// One output channel of an ALTA rational function.
+#[derive(Debug, Clone, PartialEq)]
+pub struct AltaChannel {
+    /// Domain lower corner.
+    pub min: Vec<f64>,
+    /// Domain upper corner.
+    pub max: Vec<f64>,
+    /// Numerator: multi-index and coefficient.
+    pub numerator: Vec<(Vec<u32>, f64)>,
+    /// Denominator: multi-index and coefficient.
+    pub denominator: Vec<(Vec<u32>, f64)>,
+}
+
+/// A rational function written by ALTA.
+#[derive(Debug, Clone, PartialEq)]
+pub struct AltaRational {
+    /// Input dimension.
+    pub dim_in: usize,
+    /// Input parametrisation named in the header.
+    pub param_in: String,
+    /// One function per output.
+    pub channels: Vec<AltaChannel>,
+}
+
+fn chebyshev(k: u32, t: f64) -> f64 {
+    let (mut a, mut b) = (1.0, t);
+    if k == 0 {
+        return 1.0;
+    }
+    for _ in 1..k {
+        let c = 2.0 * t * b - a;
+        a = b;
+        b = c;
+    }
+    b
+}
+
+impl AltaChannel {
+    fn term(&self, idx: &[u32], x: &[f64]) -> f64 {
+        idx.iter()
+            .enumerate()
+            .map(|(k, &d)| {
+                let w = self.max[k] - self.min[k];
+                let t = if w > 0.0 {
+                    2.0 * (x[k] - self.min[k]) / w - 1.0
+                } else {
+                    0.0
+                };
+                chebyshev(d, t)
+            })
+            .product()
+    }
+
+    /// `p(x) / q(x)` in the file's own input parametrisation.
+    pub fn eval(&self, x: &[f64]) -> f64 {
+        let p: f64 = self
+            .numerator
+            .iter()
+            .map(|(i, c)| c * self.term(i, x))
+            .sum();
+        let q: f64 = self
+            .denominator
+            .iter()
+            .map(|(i, c)| c * self.term(i, x))
+            .sum();
+        p / q
+    }
+}
+
+impl AltaRational {
+    /// Reads an ALTA rational function file.
+    ///
+    /// # Errors
+    /// Unreadable file, missing `#DIM`/`#NP`/`#NQ`/`#MIN`/`#MAX`, coefficient
+    /// lines of the wrong shape, non-finite values.
+    pub fn read(path: &Path) -> Result<Self, BrdfError> {
+        let text = std::fs::read_to_string(path).map_err(|e| BrdfError::io(path, e))?;
+        let bad = |r: String| BrdfError::malformed(path, "ALTA rational function", r);
+        let mut dim = None;
+        let mut param_in = String::new();
+        let mut channels = Vec::new();
+        let (mut min, mut max) = (Vec::new(), Vec::new());
+        let (mut np, mut nq) = (None::<usize>, None::<usize>);
+        let mut coeffs: Vec<(Vec<u32>, f64)> = Vec::new();
+        let parse_vec =
+            |it: std::str::SplitWhitespace<'_>, no: usize| -> Result<Vec<f64>, BrdfError> {
+                it.map(|v| {
+                    v.parse::<f64>()
+                        .map_err(|_| bad(format!("line {no}: `{v}` is not a number")))
+                })
+                .collect()
+            };
+        let mut flush = |min: &Vec<f64>,
+                         max: &Vec<f64>,
+                         np: usize,
+                         nq: usize,
+                         coeffs: &mut Vec<(Vec<u32>, f64)>| {
+            let den = coeffs.split_off(np);
+            channels.push(AltaChannel {
+                min: min.clone(),
+                max: max.clone(),
+                numerator: std::mem::take(coeffs),
+                denominator: den,
+            });
+            let _ = nq;
+        };
+        for (i, line) in text.lines().enumerate() {
+            let no = i + 1;
+            let t = line.trim();
+            if t.is_empty() {
+                continue;
+            }
+            if let Some(h) = t.strip_prefix('#') {
+                let mut it = h.split_whitespace();
+                match it.next() {
+                    Some("DIM") => dim = it.next().and_then(|v| v.parse::<usize>().ok()),
+                    Some("PARAM_IN") => param_in = it.collect::<Vec<_>>().join(" "),
+                    Some("MIN") => min = parse_vec(it, no)?,
+                    Some("MAX") => max = parse_vec(it, no)?,
+                    Some("NP") => {
+                        if let (Some(p), Some(q)) = (np, nq) {
+                            if coeffs.len() != p + q {
+                                return Err(bad(format!(
+                                    "line {no}: {} coefficients before, expected {}",
+                                    coeffs.len(),
+                                    p + q
+                                )));
+                            }
+                            flush(&min, &max, p, q, &mut coeffs);
+                        }
+                        np = it.next().and_then(|v| v.parse().ok());
+                        nq = None;
+                    }
+                    Some("NQ") => nq = it.next().and_then(|v| v.parse().ok()),
+                    _ => {}
+                }
+                continue;
+            }
+            let d = dim.ok_or_else(|| bad("coefficients before `#DIM`".into()))?;
+            let f: Vec<&str> = t.split_whitespace().collect();
+            if f.len() != d + 1 {
+                return Err(bad(format!(
+                    "line {no}: {} fields, expected {} indices and a value",
+                    f.len(),
+                    d
+                )));
+            }
+            let idx = f[..d]
+                .iter()
+                .map(|v| {
+                    v.parse::<u32>()
+                        .map_err(|_| bad(format!("line {no}: index `{v}`")))
+                })
+                .collect::<Result<Vec<_>, _>>()?;
+            let c: f64 = f[d]
+                .parse()
+                .map_err(|_| bad(format!("line {no}: value `{}`", f[d])))?;
+            if !c.is_finite() {
+                return Err(bad(format!("line {no}: non-finite coefficient")));
+            }
+            coeffs.push((idx, c));
+        }
+        let d = dim.ok_or_else(|| bad("no `#DIM`".into()))?;
+        let (p, q) = (
+            np.ok_or_else(|| bad("no `#NP`".into()))?,
+            nq.ok_or_else(|| bad("no `#NQ`".into()))?,
+        );
+        if coeffs.len() != p + q {
+            return Err(bad(format!(
+                "last channel has {} coefficients, expected {}",
+                coeffs.len(),
+                p + q
+            )));
+        }
+        if min.len() != d || max.len() != d {
+            return Err(bad(format!("`#MIN`/`#MAX` need {d} values")));
+        }
+        flush(&min, &max, p, q, &mut coeffs);
+        Ok(Self {
+            dim_in: d,
+            param_in,
+            channels,
+        })
+    }
+}

@@ -1,0 +1,286 @@
+//! The f32 form of a fitted BRDF: what a renderer or a shader evaluates.
+//! The same structure feeds the compact binary format and the generated
+//! WGSL/GLSL, so the f32 path here and the shaders compute the same thing in
+//! the same order.
+
+use crate::fitting::FittedBrdf;
+use crate::geometry::Vec3;
+use crate::reduce::{Coordinates, Reduction};
+use crate::BrdfError;
+use rational_core::BasisFamily;
+use std::f32::consts::PI;
+
+/// One channel in f32: basis description and coefficients.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CompactChannel {
+    /// Polynomial family.
+    pub family: BasisFamily,
+    /// Domain lower corner.
+    pub lower: Vec<f32>,
+    /// Domain upper corner.
+    pub upper: Vec<f32>,
+    /// Multi-index of each basis function (graded order).
+    pub indices: Vec<Vec<u16>>,
+    /// Numerator coefficients.
+    pub num: Vec<f32>,
+    /// Denominator coefficients.
+    pub den: Vec<f32>,
+}
+
+/// A fitted BRDF in f32.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CompactBrdf {
+    /// Coordinates of the fit.
+    pub coordinates: Coordinates,
+    /// Number of coordinates.
+    pub dims: usize,
+    /// Grazing cut in radians (`theta_d` is clamped to it).
+    pub max_theta_d: f32,
+    /// Red, green, blue.
+    pub channels: Vec<CompactChannel>,
+}
+
+/// Univariate values `phi_0..=phi_deg` at `t` in f32 (the shaders' recurrences).
+pub fn univariate_f32(family: BasisFamily, t: f32, out: &mut [f32]) {
+    out[0] = 1.0;
+    if out.len() > 1 {
+        out[1] = t;
+    }
+    for k in 1..out.len().saturating_sub(1) {
+        let kf = k as f32;
+        out[k + 1] = match family {
+            BasisFamily::Monomial => out[k] * t,
+            BasisFamily::Chebyshev => 2.0 * t * out[k] - out[k - 1],
+            BasisFamily::Legendre => ((2.0 * kf + 1.0) * t * out[k] - kf * out[k - 1]) / (kf + 1.0),
+        };
+    }
+}
+
+impl CompactChannel {
+    /// Largest degree per coordinate.
+    pub fn max_degree(&self, k: usize) -> usize {
+        self.indices
+            .iter()
+            .map(|i| i[k] as usize)
+            .max()
+            .unwrap_or(0)
+    }
+
+    /// `p(x) / q(x)` in f32.
+    pub fn eval(&self, x: &[f32]) -> f32 {
+        let d = self.lower.len();
+        let mut tables: Vec<Vec<f32>> = Vec::with_capacity(d);
+        for k in 0..d {
+            let w = self.upper[k] - self.lower[k];
+            let t = if w > 0.0 {
+                2.0 * (x[k] - self.lower[k]) / w - 1.0
+            } else {
+                0.0
+            };
+            let mut v = vec![0.0; self.max_degree(k) + 1];
+            univariate_f32(self.family, t, &mut v);
+            tables.push(v);
+        }
+        let (mut p, mut q) = (0.0f32, 0.0f32);
+        for (j, idx) in self.indices.iter().enumerate() {
+            let mut phi = 1.0f32;
+            for k in 0..d {
+                phi *= tables[k][idx[k] as usize];
+            }
+            if j < self.num.len() {
+                p += self.num[j] * phi;
+            }
+            if j < self.den.len() {
+                q += self.den[j] * phi;
+            }
+        }
+        p / q
+    }
+}
+
+/// Rusinkiewicz `(theta_h, theta_d, phi_d)` in f32, `phi_d` folded.
+pub fn half_diff_f32(wi: [f32; 3], wo: [f32; 3]) -> (f32, f32, f32) {
+    let h = [wi[0] + wo[0], wi[1] + wo[1], wi[2] + wo[2]];
+    let n = (h[0] * h[0] + h[1] * h[1] + h[2] * h[2]).sqrt();
+    let h = [h[0] / n, h[1] / n, h[2] / n];
+    let elev = |v: [f32; 3]| {
+        2.0 * (0.5 * (v[0] * v[0] + v[1] * v[1] + (v[2] - 1.0) * (v[2] - 1.0)).sqrt())
+            .min(1.0)
+            .asin()
+    };
+    let theta_h = elev(h);
+    let phi_h = h[1].atan2(h[0]);
+    // Rotate wi by -phi_h about z, then by -theta_h about y.
+    let (sp, cp) = (-phi_h).sin_cos();
+    let a = [wi[0] * cp - wi[1] * sp, wi[0] * sp + wi[1] * cp, wi[2]];
+    let (st, ct) = (-theta_h).sin_cos();
+    let d = [a[0] * ct + a[2] * st, a[1], -a[0] * st + a[2] * ct];
+    let theta_d = elev(d);
+    let mut phi_d = d[1].atan2(d[0]);
+    if phi_d < 0.0 {
+        phi_d += PI;
+    }
+    if phi_d >= PI {
+        phi_d = 0.0;
+    }
+    (theta_h, theta_d, phi_d)
+}
+
+impl CompactBrdf {
+    /// The f32 form of a fit.
+    pub fn from_fitted(f: &FittedBrdf) -> Self {
+        let channels = f
+            .channels
+            .iter()
+            .map(|r| {
+                let b = r.basis();
+                CompactChannel {
+                    family: b.family(),
+                    lower: b.domain().lower.iter().map(|&v| v as f32).collect(),
+                    upper: b.domain().upper.iter().map(|&v| v as f32).collect(),
+                    indices: (0..b.len()).map(|j| b.multi_index(j).to_vec()).collect(),
+                    num: r.numerator().iter().map(|&v| v as f32).collect(),
+                    den: r.denominator().iter().map(|&v| v as f32).collect(),
+                }
+            })
+            .collect();
+        Self {
+            coordinates: f.reduction.coordinates,
+            dims: f.reduction.dims(),
+            max_theta_d: f.reduction.max_theta_d_deg.to_radians() as f32,
+            channels,
+        }
+    }
+
+    /// Fitting coordinates in f32.
+    pub fn coordinates(&self, wi: [f32; 3], wo: [f32; 3]) -> [f32; 3] {
+        let (th, td, pd) = half_diff_f32(wi, wo);
+        let td = td.min(self.max_theta_d);
+        let (a, b) = match self.coordinates {
+            Coordinates::Radians => (th, td),
+            Coordinates::SqrtThetaH => ((th.max(0.0) / (PI / 2.0)).sqrt(), td),
+            Coordinates::Cosines => (th.cos(), td.cos()),
+        };
+        [a, b, pd]
+    }
+
+    /// RGB in f32 (zero below the horizon, negative values clamped).
+    pub fn eval(&self, wi: [f32; 3], wo: [f32; 3]) -> [f32; 3] {
+        if wi[2] <= 0.0 || wo[2] <= 0.0 {
+            return [0.0; 3];
+        }
+        let x = self.coordinates(wi, wo);
+        [0, 1, 2].map(|c| self.channels[c].eval(&x[..self.dims]).max(0.0))
+    }
+
+    /// Evaluates many pairs (f32, batched, in parallel).
+    pub fn eval_many(&self, wi: &[[f32; 3]], wo: &[[f32; 3]]) -> Vec<[f32; 3]> {
+        use rayon::prelude::*;
+        wi.par_iter()
+            .zip(wo.par_iter())
+            .map(|(a, b)| self.eval(*a, *b))
+            .collect()
+    }
+
+    /// The compact binary form: magic `RFB1`, header, then every channel.
+    pub fn to_bytes(&self) -> Vec<u8> {
+        let mut out = b"RFB1".to_vec();
+        let coords = match self.coordinates {
+            Coordinates::Radians => 0u8,
+            Coordinates::SqrtThetaH => 1,
+            Coordinates::Cosines => 2,
+        };
+        out.extend_from_slice(&[coords, self.dims as u8, self.channels.len() as u8, 0]);
+        out.extend_from_slice(&self.max_theta_d.to_le_bytes());
+        for c in &self.channels {
+            let fam = match c.family {
+                BasisFamily::Monomial => 0u8,
+                BasisFamily::Chebyshev => 1,
+                BasisFamily::Legendre => 2,
+            };
+            out.push(fam);
+            out.extend_from_slice(&(c.num.len() as u16).to_le_bytes());
+            out.extend_from_slice(&(c.den.len() as u16).to_le_bytes());
+            for v in c.lower.iter().chain(&c.upper).chain(&c.num).chain(&c.den) {
+                out.extend_from_slice(&v.to_le_bytes());
+            }
+        }
+        out
+    }
+
+    /// Parses [`CompactBrdf::to_bytes`] output.
+    ///
+    /// # Errors
+    /// Wrong magic, truncated data, unknown codes.
+    pub fn from_bytes(b: &[u8]) -> Result<Self, BrdfError> {
+        let p = std::path::Path::new("<compact>");
+        let bad = |r: &str| BrdfError::malformed(p, "compact binary", r.to_string());
+        if b.len() < 12 || &b[..4] != b"RFB1" {
+            return Err(bad("missing RFB1 magic"));
+        }
+        let coordinates = match b[4] {
+            0 => Coordinates::Radians,
+            1 => Coordinates::SqrtThetaH,
+            2 => Coordinates::Cosines,
+            _ => return Err(bad("unknown coordinates code")),
+        };
+        let dims = b[5] as usize;
+        let nch = b[6] as usize;
+        if !(1..=3).contains(&dims) {
+            return Err(bad("dimension out of range"));
+        }
+        let max_theta_d = f32::from_le_bytes(b[8..12].try_into().expect("4 bytes"));
+        let mut pos = 12;
+        let mut channels = Vec::with_capacity(nch);
+        for _ in 0..nch {
+            let head = b
+                .get(pos..pos + 5)
+                .ok_or_else(|| bad("truncated channel header"))?;
+            let family = match head[0] {
+                0 => BasisFamily::Monomial,
+                1 => BasisFamily::Chebyshev,
+                2 => BasisFamily::Legendre,
+                _ => return Err(bad("unknown basis family code")),
+            };
+            let n_p = u16::from_le_bytes([head[1], head[2]]) as usize;
+            let n_q = u16::from_le_bytes([head[3], head[4]]) as usize;
+            pos += 5;
+            let count = 2 * dims + n_p + n_q;
+            let raw = b
+                .get(pos..pos + 4 * count)
+                .ok_or_else(|| bad("truncated coefficients"))?;
+            pos += 4 * count;
+            let v: Vec<f32> = raw
+                .chunks_exact(4)
+                .map(|c| f32::from_le_bytes(c.try_into().expect("4")))
+                .collect();
+            channels.push(CompactChannel {
+                family,
+                lower: v[..dims].to_vec(),
+                upper: v[dims..2 * dims].to_vec(),
+                indices: rational_core::graded_indices(dims, n_p.max(n_q)),
+                num: v[2 * dims..2 * dims + n_p].to_vec(),
+                den: v[2 * dims + n_p..].to_vec(),
+            });
+        }
+        if pos != b.len() {
+            return Err(bad("trailing bytes"));
+        }
+        Ok(Self {
+            coordinates,
+            dims,
+            max_theta_d,
+            channels,
+        })
+    }
+}
+
+/// `f32` view of a direction.
+pub fn to_f32(v: Vec3) -> [f32; 3] {
+    v.map(|x| x as f32)
+}
+
+/// The reduction a compact fit corresponds to (for reports).
+pub fn describe(r: &Reduction) -> String {
+    format!("{:?} in {:?} coordinates", r.kind, r.coordinates)
+}

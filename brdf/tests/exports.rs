@@ -1,0 +1,150 @@
+//! The f32 path, the compact binary format and the generated shaders.
+
+use brdf::shader::{shader_source, Language};
+use brdf::{
+    compact::to_f32, fit_brdf, from_spherical, BlinnPhong, BrdfFitSettings, CompactBrdf,
+    CookTorranceGgx, Coordinates, FittedBrdf, Reduction, ReductionKind,
+};
+
+fn fits() -> Vec<FittedBrdf> {
+    let m = CookTorranceGgx {
+        kd: [0.05, 0.1, 0.3],
+        f0: [0.04; 3],
+        alpha: 0.2,
+    };
+    let b = BlinnPhong {
+        kd: [0.2; 3],
+        ks: [0.3; 3],
+        exponent: 12.0,
+    };
+    let mut out = Vec::new();
+    for (coords, kind) in [
+        (Coordinates::SqrtThetaH, ReductionKind::Slice2d),
+        (Coordinates::Cosines, ReductionKind::Slice2d),
+        (Coordinates::Radians, ReductionKind::Full3d),
+    ] {
+        let mut r = Reduction::default()
+            .with_coordinates(coords)
+            .with_kind(kind)
+            .with_resolution(24, 24);
+        if kind == ReductionKind::Full3d {
+            r = r.with_resolution(12, 12).with_phi_resolution(10);
+        }
+        let s = BrdfFitSettings::default().with_reduction(r);
+        let (f, _) = if kind == ReductionKind::Full3d {
+            fit_brdf(&b, &s).unwrap()
+        } else {
+            fit_brdf(&m, &s).unwrap()
+        };
+        out.push(f);
+    }
+    out
+}
+
+/// Deterministic direction pairs over the hemisphere.
+fn pairs(n: usize) -> Vec<([f64; 3], [f64; 3])> {
+    (0..n)
+        .map(|k| {
+            let u = |s: f64| ((k as f64 + 0.5) * s).fract();
+            (
+                from_spherical(1.3 * u(0.618_034), std::f64::consts::TAU * u(0.754_878)),
+                from_spherical(1.3 * u(0.569_840), std::f64::consts::TAU * u(0.851_249)),
+            )
+        })
+        .collect()
+}
+
+#[test]
+fn f32_path_agrees_with_f64_within_evaluation_conditioning() {
+    for f in fits() {
+        let c = CompactBrdf::from_fitted(&f);
+        for (wi, wo) in pairs(2000) {
+            let exact = brdf::Brdf::eval(&f, wi, wo);
+            let fast = c.eval(to_f32(wi), to_f32(wo));
+            let x = f.coordinates(wi, wo);
+            for ch in 0..3 {
+                // Condition number of evaluating p/q at x, times f32 rounding
+                // of the coordinates, recurrences and sums.
+                let r = &f.channels[ch];
+                let n = r.basis().len();
+                let mut phi = vec![0.0; n];
+                r.basis().eval_into(&x, &mut phi);
+                let pa: f64 = r
+                    .numerator()
+                    .iter()
+                    .zip(&phi)
+                    .map(|(a, b)| (a * b).abs())
+                    .sum();
+                let qa: f64 = r
+                    .denominator()
+                    .iter()
+                    .zip(&phi)
+                    .map(|(a, b)| (a * b).abs())
+                    .sum();
+                let (p, q) = r.eval_parts(&x);
+                let kappa = pa / p.abs().max(1e-300) + qa / q.abs().max(1e-300);
+                let tol = 64.0 * f32::EPSILON as f64 * n as f64 * kappa * exact[ch].abs() + 1e-6;
+                assert!(
+                    (fast[ch] as f64 - exact[ch]).abs() <= tol,
+                    "channel {ch}: f32 {} vs f64 {} (tolerance {tol:e})",
+                    fast[ch],
+                    exact[ch]
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn compact_binary_round_trips() {
+    for f in fits() {
+        let c = CompactBrdf::from_fitted(&f);
+        let bytes = c.to_bytes();
+        let back = CompactBrdf::from_bytes(&bytes).unwrap();
+        assert_eq!(back, c);
+        assert_eq!(back.to_bytes(), bytes);
+        assert!(bytes.len() < 12 + 3 * (5 + 4 * (6 + 60)));
+        let mut cut = bytes.clone();
+        cut.truncate(bytes.len() - 3);
+        assert!(CompactBrdf::from_bytes(&cut).is_err());
+        assert!(CompactBrdf::from_bytes(b"nope").is_err());
+    }
+}
+
+#[test]
+fn generated_wgsl_and_glsl_are_valid_shaders() {
+    for f in fits() {
+        let c = CompactBrdf::from_fitted(&f);
+        let wgsl = shader_source(&c, Language::Wgsl);
+        let module = naga::front::wgsl::parse_str(&wgsl)
+            .unwrap_or_else(|e| panic!("{}\n{wgsl}", e.emit_to_string(&wgsl)));
+        naga::valid::Validator::new(
+            naga::valid::ValidationFlags::all(),
+            naga::valid::Capabilities::all(),
+        )
+        .validate(&module)
+        .unwrap_or_else(|e| panic!("{e:?}\n{wgsl}"));
+        assert!(module
+            .functions
+            .iter()
+            .any(|(_, f)| f.name.as_deref() == Some("ratfit_brdf")));
+
+        let glsl = format!(
+            "#version 450\n{}\nlayout(location = 0) out vec4 color;\nvoid main() {{ color = vec4(ratfit_brdf(vec3(0.0, 0.6, 0.8), vec3(0.0, -0.6, 0.8)), 1.0); }}\n",
+            shader_source(&c, Language::Glsl)
+        );
+        let mut front = naga::front::glsl::Frontend::default();
+        let module = front
+            .parse(
+                &naga::front::glsl::Options::from(naga::ShaderStage::Fragment),
+                &glsl,
+            )
+            .unwrap_or_else(|e| panic!("{e:?}\n{glsl}"));
+        naga::valid::Validator::new(
+            naga::valid::ValidationFlags::all(),
+            naga::valid::Capabilities::all(),
+        )
+        .validate(&module)
+        .unwrap_or_else(|e| panic!("{e:?}\n{glsl}"));
+    }
+}

@@ -1,0 +1,199 @@
+//! `ratfit fit` and `ratfit eval --directions`: measured BRDFs to rational fits.
+
+use anyhow::{bail, Context, Result};
+use brdf::{
+    fit_brdf, fit_samples, AltaData, Brdf, BrdfFitSettings, Coordinates, FittedBrdf, MerlBrdf,
+    Reduction, ReductionKind, RglBrdf, ScatteredBrdf,
+};
+use clap::Args;
+use rational_core::{Backend, FitSettings, PoleControl};
+use std::path::{Path, PathBuf};
+
+/// Options of `ratfit fit`.
+#[derive(Args)]
+pub struct FitArgs {
+    /// The measured material file.
+    material: PathBuf,
+    /// File format: merl, rgl, cornell (scattered spectral samples) or alta
+    /// (ALTA text data, fitted in the file's own parametrisation).
+    #[arg(long)]
+    format: String,
+    /// 2 (rho(theta_h, theta_d)) or 3 (theta_h, theta_d, phi_d).
+    #[arg(long, default_value_t = 2)]
+    dims: usize,
+    /// 2-D only: use the spread over phi_d as the interval instead of the phi_d = pi/2 slice.
+    #[arg(long)]
+    spread: bool,
+    /// Fitting coordinates: sqrt (MERL warp of theta_h), radians or cosines.
+    #[arg(long, default_value = "sqrt")]
+    coords: String,
+    /// Relative half-width of the intervals.
+    #[arg(long, default_value_t = 0.05)]
+    rel_tol: f64,
+    /// Smallest half-width as a fraction of each channel's median value (noise floor).
+    #[arg(long, default_value_t = 1e-2)]
+    noise_floor: f64,
+    /// Largest coefficient budget per channel.
+    #[arg(long, default_value_t = 60)]
+    max_coeffs: usize,
+    /// Samples with theta_d above this (degrees) are not fitted.
+    #[arg(long, default_value_t = 78.0)]
+    max_theta_d: f64,
+    /// Grid resolution as NH,ND[,NP] (theta_h, theta_d, phi_d bins).
+    #[arg(long)]
+    resolution: Option<String>,
+    /// Solver backend.
+    #[arg(long, default_value = "native")]
+    backend: Backend,
+    /// Poles between samples: none, grid or bernstein.
+    #[arg(long, default_value = "grid")]
+    poles: String,
+    /// Print the report as JSON.
+    #[arg(long)]
+    json: bool,
+    /// Output fit (JSON).
+    #[arg(short = 'o', long = "output")]
+    output: PathBuf,
+}
+
+/// Loads a material file by format name.
+pub fn load_material(path: &Path, format: &str) -> Result<Box<dyn Brdf>> {
+    Ok(match format {
+        "merl" => Box::new(MerlBrdf::read(path)?),
+        "rgl" => Box::new(RglBrdf::read(path)?),
+        other => bail!("unknown format `{other}` (merl, rgl, cornell, alta)"),
+    })
+}
+
+fn reduction(args: &FitArgs) -> Result<Reduction> {
+    let kind = match (args.dims, args.spread) {
+        (2, false) => ReductionKind::Slice2d,
+        (2, true) => ReductionKind::Spread2d,
+        (3, false) => ReductionKind::Full3d,
+        (3, true) => bail!("--spread applies to 2-D fits only"),
+        (d, _) => bail!("--dims {d}: use 2 or 3"),
+    };
+    let coords = match args.coords.as_str() {
+        "sqrt" => Coordinates::SqrtThetaH,
+        "radians" => Coordinates::Radians,
+        "cosines" => Coordinates::Cosines,
+        c => bail!("unknown coordinates `{c}` (sqrt, radians, cosines)"),
+    };
+    let mut r = Reduction::default()
+        .with_kind(kind)
+        .with_coordinates(coords)
+        .with_max_theta_d(args.max_theta_d);
+    if kind == ReductionKind::Full3d {
+        // The full MERL grid is 1.46 M cells per channel; default to a 45^3 subgrid.
+        r = r.with_resolution(45, 45).with_phi_resolution(45);
+    }
+    if let Some(res) = &args.resolution {
+        let v: Vec<usize> = res
+            .split(',')
+            .map(|s| s.trim().parse::<usize>())
+            .collect::<Result<_, _>>()
+            .with_context(|| format!("--resolution `{res}` is not NH,ND[,NP]"))?;
+        if v.len() < 2 || v.iter().any(|&n| n < 2) {
+            bail!("--resolution `{res}`: give at least two bin counts, each >= 2");
+        }
+        r = r.with_resolution(v[0], v[1]);
+        if let Some(&p) = v.get(2) {
+            r = r.with_phi_resolution(p);
+        }
+    }
+    Ok(r)
+}
+
+/// Runs `ratfit fit`.
+pub fn run_fit(args: FitArgs) -> Result<()> {
+    let poles = match args.poles.as_str() {
+        "none" => PoleControl::None,
+        "grid" => PoleControl::DenseGrid { points_per_dim: 0 },
+        "bernstein" => PoleControl::Bernstein { elevation: 2 },
+        other => bail!("unknown pole control `{other}` (none, grid, bernstein)"),
+    };
+    let fit_settings = FitSettings::default()
+        .with_coeff_range(2, args.max_coeffs)?
+        .with_backend(args.backend)?
+        .with_pole_control(poles);
+    if args.format == "alta" {
+        return run_fit_alta(&args, &fit_settings);
+    }
+    let settings = BrdfFitSettings::default()
+        .with_reduction(reduction(&args)?)
+        .with_rel_tol(args.rel_tol)?
+        .with_noise_floor(args.noise_floor)?
+        .with_fit_settings(fit_settings);
+    let (fitted, report) = if args.format == "cornell" {
+        let data = ScatteredBrdf::read_cornell(&args.material)?;
+        let samples = data.samples(settings.reduction());
+        fit_samples(&samples, &format!("Cornell {}", data.name), &settings)?
+    } else {
+        let material = load_material(&args.material, &args.format)?;
+        fit_brdf(material.as_ref(), &settings)?
+    };
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&report)?);
+    } else {
+        println!("{report}");
+    }
+    let out = serde_json::json!({ "brdf": fitted, "report": report });
+    std::fs::write(&args.output, serde_json::to_string_pretty(&out)?)
+        .with_context(|| format!("cannot write {}", args.output.display()))?;
+    eprintln!("wrote {}", args.output.display());
+    Ok(())
+}
+
+/// ALTA text data: each output fitted in the file's own parametrisation.
+fn run_fit_alta(args: &FitArgs, settings: &FitSettings) -> Result<()> {
+    let data = AltaData::read(&args.material)?;
+    println!(
+        "{}: {} samples, {} inputs ({}), {} outputs ({})",
+        args.material.display(),
+        data.rows.len(),
+        data.dim_in,
+        data.param_in,
+        data.dim_out,
+        data.param_out
+    );
+    let mut functions = Vec::new();
+    let mut reports = Vec::new();
+    for k in 0..data.dim_out {
+        let d = data.channel(k, args.rel_tol)?;
+        let r = rational_core::fit(&d, settings).with_context(|| format!("output {k}"))?;
+        println!("output {k}:\n{r}");
+        functions.push(r.function.clone());
+        reports.push(r);
+    }
+    let out = serde_json::json!({ "alta_param_in": data.param_in, "functions": functions, "reports": reports });
+    std::fs::write(&args.output, serde_json::to_string_pretty(&out)?)
+        .with_context(|| format!("cannot write {}", args.output.display()))?;
+    eprintln!("wrote {}", args.output.display());
+    Ok(())
+}
+
+/// Loads a fitted BRDF written by `ratfit fit`.
+pub fn load_fitted(value: &serde_json::Value) -> Option<Result<FittedBrdf>> {
+    value
+        .get("brdf")
+        .map(|b| serde_json::from_value(b.clone()).context("malformed fitted BRDF"))
+}
+
+/// `r,g,b` per row of `theta_i,phi_i,theta_o,phi_o`.
+pub fn eval_directions(fitted: &FittedBrdf, rows: &[Vec<f64>]) -> Result<String> {
+    if rows[0].len() != 4 {
+        bail!(
+            "--directions needs 4 columns theta_i,phi_i,theta_o,phi_o; found {}",
+            rows[0].len()
+        );
+    }
+    let mut out = String::with_capacity(rows.len() * 40);
+    for r in rows {
+        let v = fitted.eval(
+            brdf::from_spherical(r[0], r[1]),
+            brdf::from_spherical(r[2], r[3]),
+        );
+        out.push_str(&format!("{:e},{:e},{:e}\n", v[0], v[1], v[2]));
+    }
+    Ok(out)
+}
