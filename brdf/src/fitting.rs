@@ -1,5 +1,6 @@
 //! Fitting the RGB channels of a BRDF and evaluating the fit.
 
+use crate::baseline::BaselineReport;
 use crate::geometry::{HalfDiff, Vec3};
 use crate::reduce::{Reduction, Samples};
 use crate::{Brdf, BrdfError};
@@ -16,6 +17,7 @@ pub struct BrdfFitSettings {
     rel_tol: f64,
     noise_floor: f64,
     fit: FitSettings,
+    baselines: bool,
 }
 
 impl Default for BrdfFitSettings {
@@ -27,6 +29,7 @@ impl Default for BrdfFitSettings {
             reduction: Reduction::default(),
             rel_tol: 0.05,
             noise_floor: 1e-2,
+            baselines: true,
             fit: FitSettings::default()
                 .with_coeff_range(2, 60)
                 .expect("valid range"),
@@ -72,6 +75,13 @@ impl BrdfFitSettings {
         }
         self.noise_floor = floor;
         Ok(self)
+    }
+
+    /// Also fit the baselines (a polynomial with as many coefficients, and
+    /// Cook-Torrance by Levenberg-Marquardt) on the same samples. Default on.
+    pub fn with_baselines(mut self, on: bool) -> Self {
+        self.baselines = on;
+        self
     }
 
     /// The engine's settings (basis, budgets, backend, pole control).
@@ -190,6 +200,8 @@ pub struct ChannelReport {
     pub cos_rmse: f64,
     /// Fit time (the sweep) in seconds.
     pub seconds: f64,
+    /// Baselines on the same samples (when enabled).
+    pub baselines: Vec<BaselineReport>,
 }
 
 /// The report of [`fit_brdf`].
@@ -245,6 +257,15 @@ impl fmt::Display for BrdfFitReport {
                 c.cos_rmse,
                 c.seconds
             )?;
+        }
+        for c in &self.channels {
+            for b in &c.baselines {
+                writeln!(
+                    f,
+                    "  {}   baseline {:<58} max rel {:>9.3e}  mean rel {:>9.3e}  {:>7.3} s",
+                    c.channel, b.name, b.max_rel, b.mean_rel, b.seconds
+                )?;
+            }
         }
         write!(
             f,
@@ -393,6 +414,14 @@ fn fit_channel(
         rmse: report.errors.rmse,
         cos_rmse: if wsum > 0.0 { (wsq / wsum).sqrt() } else { 0.0 },
         seconds: report.seconds,
+        baselines: if s.baselines {
+            vec![
+                crate::baseline::polynomial(&data, f.basis().family(), report.n_p + report.n_q),
+                crate::baseline::cook_torrance(samples, &used, c),
+            ]
+        } else {
+            Vec::new()
+        },
     };
     Ok((f, rep))
 }

@@ -24,6 +24,7 @@
 
 mod alta_rational;
 mod analytic;
+pub mod baseline;
 pub mod compact;
 mod error;
 mod fitting;

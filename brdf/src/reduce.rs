@@ -67,11 +67,16 @@ pub struct Reduction {
     /// Samples with `theta_d` above this many degrees are not fitted (the
     /// paper removes those above 78).
     pub max_theta_d_deg: f64,
+    /// Cells whose incident or outgoing elevation exceeds this many degrees
+    /// are not sampled: near the horizon, measured tables divide small noisy
+    /// values by a vanishing cosine.
+    pub max_elevation_deg: f64,
 }
 
 impl Default for Reduction {
     /// The 2-D slice on the MERL grid (90 x 90), sqrt-warped `theta_h`,
-    /// grazing `theta_d > 78` degrees cut.
+    /// grazing `theta_d > 78` degrees cut, directions within 85 degrees of
+    /// the normal.
     fn default() -> Self {
         Self {
             kind: ReductionKind::Slice2d,
@@ -80,6 +85,7 @@ impl Default for Reduction {
             n_theta_d: 90,
             n_phi_d: 180,
             max_theta_d_deg: 78.0,
+            max_elevation_deg: 85.0,
         }
     }
 }
@@ -107,6 +113,12 @@ impl Reduction {
     /// Sets the `phi_d` resolution.
     pub fn with_phi_resolution(mut self, n_phi_d: usize) -> Self {
         self.n_phi_d = n_phi_d.max(2);
+        self
+    }
+
+    /// Sets the largest elevation of either direction, in degrees.
+    pub fn with_max_elevation(mut self, degrees: f64) -> Self {
+        self.max_elevation_deg = degrees;
         self
     }
 
@@ -158,11 +170,12 @@ impl Reduction {
         let rows: Vec<Option<SampleRow>> = cells
             .par_iter()
             .map(|&(th, td, pd)| {
-                let value = eval_at(material, th, td, pd)?;
+                let min_cos = self.max_elevation_deg.to_radians().cos();
+                let value = eval_at(material, th, td, pd, min_cos)?;
                 let (mut lo, mut hi) = (value.0, value.0);
                 if spread {
                     for k in 0..self.n_phi_d {
-                        let v = eval_at(material, th, td, self.phi_d(k))?.0;
+                        let v = eval_at(material, th, td, self.phi_d(k), min_cos)?.0;
                         for c in 0..3 {
                             lo[c] = lo[c].min(v[c]);
                             hi[c] = hi[c].max(v[c]);
@@ -187,7 +200,13 @@ impl Reduction {
 
 /// The BRDF at Rusinkiewicz angles (with `phi_h = 0`) and `cos_i cos_o`;
 /// `None` below the horizon.
-fn eval_at(material: &dyn Brdf, theta_h: f64, theta_d: f64, phi_d: f64) -> Option<([f64; 3], f64)> {
+fn eval_at(
+    material: &dyn Brdf,
+    theta_h: f64,
+    theta_d: f64,
+    phi_d: f64,
+    min_cos: f64,
+) -> Option<([f64; 3], f64)> {
     let (wi, wo) = HalfDiff {
         theta_h,
         phi_h: 0.0,
@@ -195,7 +214,7 @@ fn eval_at(material: &dyn Brdf, theta_h: f64, theta_d: f64, phi_d: f64) -> Optio
         phi_d,
     }
     .to_directions();
-    if wi[2] <= 1e-9 || wo[2] <= 1e-9 {
+    if wi[2] <= min_cos.max(1e-9) || wo[2] <= min_cos.max(1e-9) {
         return None;
     }
     Some((material.eval(wi, wo), wi[2] * wo[2]))

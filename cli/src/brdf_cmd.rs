@@ -39,6 +39,9 @@ pub struct FitArgs {
     /// Samples with theta_d above this (degrees) are not fitted.
     #[arg(long, default_value_t = 78.0)]
     max_theta_d: f64,
+    /// Cells with either direction further than this from the normal (degrees) are not sampled.
+    #[arg(long, default_value_t = 85.0)]
+    max_elevation: f64,
     /// Grid resolution as NH,ND[,NP] (theta_h, theta_d, phi_d bins).
     #[arg(long)]
     resolution: Option<String>,
@@ -82,7 +85,8 @@ fn reduction(args: &FitArgs) -> Result<Reduction> {
     let mut r = Reduction::default()
         .with_kind(kind)
         .with_coordinates(coords)
-        .with_max_theta_d(args.max_theta_d);
+        .with_max_theta_d(args.max_theta_d)
+        .with_max_elevation(args.max_elevation);
     if kind == ReductionKind::Full3d {
         // The full MERL grid is 1.46 M cells per channel; default to a 45^3 subgrid.
         r = r.with_resolution(45, 45).with_phi_resolution(45);

@@ -327,7 +327,8 @@ fn main() -> Result<()> {
                 .with_context(|| format!("--split `{split}` is not NP,NQ"))?;
             let settings = FitSettings::default()
                 .with_family(basis)
-                .with_pole_control(PoleControl::None);
+                .with_pole_control(PoleControl::None)
+                .with_value_scaling(false);
             let p = split_problem(&d, np, nq, &settings)?;
             std::fs::create_dir_all(&out)
                 .with_context(|| format!("cannot create {}", out.display()))?;

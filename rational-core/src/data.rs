@@ -205,6 +205,21 @@ impl IntervalData {
         }
     }
 
+    /// The largest bound magnitude (1 when all bounds are zero): dividing by
+    /// it makes the data unit-free, so scaled data give the same fit.
+    pub fn value_scale(&self) -> f64 {
+        let m = self
+            .lo
+            .iter()
+            .chain(&self.hi)
+            .fold(0.0_f64, |m, v| m.max(v.abs()));
+        if m > 0.0 && m.is_finite() {
+            m
+        } else {
+            1.0
+        }
+    }
+
     /// The bounding box of the points.
     pub fn bounding_box(&self) -> Domain {
         let mut lower = vec![f64::INFINITY; self.dim];

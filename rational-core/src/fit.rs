@@ -2,7 +2,7 @@
 
 use crate::poles::{bernstein_margin, bernstein_rows, grid_check, grid_size};
 use crate::problem::{
-    build_problem, condition_number, DesignMatrix, ExtraConstraints, NoExtraConstraints,
+    build_problem_scaled, condition_number, DesignMatrix, ExtraConstraints, NoExtraConstraints,
 };
 use crate::report::{FitReport, PoleReport, SplitSummary};
 use crate::verify::{error_figures, verify, Verification};
@@ -37,6 +37,8 @@ struct Prepared<'a> {
     data: &'a IntervalData,
     settings: &'a FitSettings,
     extra: &'a dyn ExtraConstraints,
+    /// Bounds are divided by this in P(n_p, n_q); the numerator is scaled back.
+    scale: f64,
 }
 
 impl<'a> Prepared<'a> {
@@ -59,12 +61,18 @@ impl<'a> Prepared<'a> {
         };
         let basis = Basis::new(settings.family, domain, len)?;
         let design = DesignMatrix::new(&basis, data);
+        let scale = if settings.value_scaling {
+            data.value_scale()
+        } else {
+            1.0
+        };
         Ok(Self {
             basis,
             design,
             data,
             settings,
             extra,
+            scale,
         })
     }
 
@@ -90,7 +98,7 @@ impl<'a> Prepared<'a> {
         rows: &[Vec<f64>],
     ) -> Result<LdpProblem, FitError> {
         debug_assert_eq!(data.len(), self.data.len());
-        build_problem(&self.design, data, n_p, n_q, rows)
+        build_problem_scaled(&self.design, data, n_p, n_q, rows, self.scale)
     }
 
     fn solve(
@@ -158,7 +166,7 @@ impl<'a> Prepared<'a> {
             warm = sol.active_set.clone();
             let f = RationalFunction::new(
                 split_basis.clone(),
-                sol.x[..n_p].to_vec(),
+                sol.x[..n_p].iter().map(|a| a * self.scale).collect(),
                 sol.x[n_p..].to_vec(),
             )?
             .normalised();

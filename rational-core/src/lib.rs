@@ -47,7 +47,8 @@ pub use fit::{
 };
 pub use poles::PoleControl;
 pub use problem::{
-    build_problem, condition_number, DesignMatrix, ExtraConstraints, NoExtraConstraints,
+    build_problem, build_problem_scaled, condition_number, DesignMatrix, ExtraConstraints,
+    NoExtraConstraints,
 };
 pub use qp_backends::{Backend, SolveOptions, Status};
 pub use rational::RationalFunction;

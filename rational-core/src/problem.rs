@@ -67,6 +67,30 @@ pub fn build_problem(
     n_q: usize,
     extra: &[Vec<f64>],
 ) -> Result<LdpProblem, FitError> {
+    build_problem_scaled(design, data, n_p, n_q, extra, 1.0)
+}
+
+/// As [`build_problem`] with the bounds divided by `value_scale` (and the
+/// numerator part of every extra row multiplied by it): the solution is
+/// `(a / value_scale, b)`. Dividing by the data's magnitude makes the fit
+/// independent of the data's units (the least-norm objective is not).
+///
+/// # Errors
+/// As [`build_problem`], plus a scale that is not finite and positive.
+pub fn build_problem_scaled(
+    design: &DesignMatrix,
+    data: &IntervalData,
+    n_p: usize,
+    n_q: usize,
+    extra: &[Vec<f64>],
+    value_scale: f64,
+) -> Result<LdpProblem, FitError> {
+    if !(value_scale.is_finite() && value_scale > 0.0) {
+        return Err(FitError::InvalidSetting {
+            name: "value scale",
+            reason: format!("{value_scale}"),
+        });
+    }
     let n = n_p + n_q;
     if n_p == 0 || n_q == 0 || n_p.max(n_q) > design.cols() {
         return Err(FitError::InvalidSetting {
@@ -90,7 +114,8 @@ pub fn build_problem(
         .enumerate()
         .for_each(|(i, pair)| {
             let phi = design.row(i);
-            let (lo, hi) = (data.lo()[i], data.hi()[i]);
+            // Divide (not multiply by the inverse): 1/scale overflows for subnormal data.
+            let (lo, hi) = (data.lo()[i] / value_scale, data.hi()[i] / value_scale);
             let (r1, r2) = pair.split_at_mut(n);
             for k in 0..n_p {
                 r1[k] = phi[k];
@@ -106,6 +131,7 @@ pub fn build_problem(
     for (j, row) in extra.iter().enumerate() {
         let dst = &mut g[(2 * s + j) * n..(2 * s + j + 1) * n];
         dst.copy_from_slice(row);
+        dst[..n_p].iter_mut().for_each(|v| *v *= value_scale);
         normalise(dst);
     }
     let h = vec![1.0; 2 * s + extra.len()];

@@ -30,9 +30,11 @@ fn read_alta(path: &std::path::Path) -> Vec<Vec<f64>> {
 }
 
 fn settings() -> FitSettings {
-    // The reference did not check poles between samples.
+    // The reference used the paper's formulation: no pole check between
+    // samples, no scaling of the values.
     FitSettings::default()
         .with_pole_control(PoleControl::None)
+        .with_value_scaling(false)
         .with_selection(Selection::Depth)
         .with_coeff_range(2, 14)
         .unwrap()

@@ -1,0 +1,191 @@
+//! Baselines the paper compares rational fits against, on the same samples:
+//! a polynomial with the same number of coefficients (least squares on the
+//! relative error) and a nonlinear fit of an analytic model (Cook-Torrance
+//! with GGX and Schlick's Fresnel, by Levenberg-Marquardt on the relative
+//! error).
+
+use crate::analytic::CookTorranceGgx;
+use crate::geometry::HalfDiff;
+use crate::reduce::Samples;
+use crate::Brdf;
+use faer::linalg::solvers::SolveLstsq;
+use rational_core::{Basis, BasisFamily, Domain, IntervalData};
+use serde::{Deserialize, Serialize};
+use std::time::Instant;
+
+/// Error figures of a baseline fit.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct BaselineReport {
+    /// What was fitted.
+    pub name: String,
+    /// Parameters or coefficients.
+    pub parameters: usize,
+    /// Max relative error over the samples.
+    pub max_rel: f64,
+    /// Mean relative error over the samples.
+    pub mean_rel: f64,
+    /// Wall time in seconds.
+    pub seconds: f64,
+}
+
+fn figures(
+    name: String,
+    parameters: usize,
+    errors: impl Iterator<Item = f64>,
+    start: Instant,
+) -> BaselineReport {
+    let (mut max, mut sum, mut n) = (0.0_f64, 0.0, 0usize);
+    for e in errors {
+        max = max.max(e);
+        sum += e;
+        n += 1;
+    }
+    BaselineReport {
+        name,
+        parameters,
+        max_rel: max,
+        mean_rel: sum / n.max(1) as f64,
+        seconds: start.elapsed().as_secs_f64(),
+    }
+}
+
+/// A polynomial with `n` coefficients (the graded basis of `family` on the
+/// data's bounding box) minimising the squared relative error.
+pub fn polynomial(data: &IntervalData, family: BasisFamily, n: usize) -> BaselineReport {
+    let start = Instant::now();
+    let bb = data.bounding_box();
+    let domain = Domain::new(bb.lower, bb.upper).expect("a bounding box is a valid domain");
+    let basis = Basis::new(family, domain, n.max(1)).expect("non-empty basis");
+    let s = data.len();
+    // Design matrix weighted by 1/v: the residual is the relative error.
+    let rows: Vec<Vec<f64>> = (0..s)
+        .map(|i| {
+            let mut row = vec![0.0; basis.len()];
+            basis.eval_into(data.point(i), &mut row);
+            row.iter().map(|v| v / data.value(i)).collect()
+        })
+        .collect();
+    let a = faer::Mat::<f64>::from_fn(s, basis.len(), |i, j| rows[i][j]);
+    let b = faer::Mat::<f64>::from_fn(s, 1, |_, _| 1.0);
+    let c = a.qr().solve_lstsq(&b);
+    let coef: Vec<f64> = (0..basis.len()).map(|j| c[(j, 0)]).collect();
+    let errors = (0..s).map(|i| (basis.combine(&coef, data.point(i)) / data.value(i) - 1.0).abs());
+    figures(
+        format!("polynomial ({} coefficients)", basis.len()),
+        basis.len(),
+        errors,
+        start,
+    )
+}
+
+/// Cook-Torrance (GGX, Schlick) with a Lambertian base fitted to channel
+/// `c` by Levenberg-Marquardt on the relative error; parameters `kd`, `f0`
+/// and `alpha` (3 numbers).
+pub fn cook_torrance(samples: &Samples, used: &[usize], c: usize) -> BaselineReport {
+    let start = Instant::now();
+    let rows: Vec<_> = used
+        .iter()
+        .map(|&i| {
+            let r = &samples.rows[i];
+            let (wi, wo) = HalfDiff {
+                theta_h: r.angles[0],
+                phi_h: 0.0,
+                theta_d: r.angles[1],
+                phi_d: r.angles[2],
+            }
+            .to_directions();
+            (wi, wo, r.value[c])
+        })
+        .collect();
+    let model = |p: &[f64; 3]| CookTorranceGgx {
+        kd: [p[0].abs(); 3],
+        f0: [p[1].abs().min(1.0); 3],
+        alpha: p[2].abs().max(1e-4),
+    };
+    let residuals = |p: &[f64; 3]| -> Vec<f64> {
+        let m = model(p);
+        rows.iter()
+            .map(|(wi, wo, v)| m.eval(*wi, *wo)[0] / v - 1.0)
+            .collect()
+    };
+    let cost = |r: &[f64]| r.iter().map(|x| x * x).sum::<f64>();
+    let mut p = [0.1, 0.5, 0.2];
+    let mut r = residuals(&p);
+    let mut lambda = 1e-3;
+    for _ in 0..100 {
+        // Numeric Jacobian, normal equations with damping.
+        let mut jac = vec![[0.0; 3]; r.len()];
+        for k in 0..3 {
+            let mut q = p;
+            let h = 1e-6 * p[k].abs().max(1e-3);
+            q[k] += h;
+            let rk = residuals(&q);
+            for i in 0..r.len() {
+                jac[i][k] = (rk[i] - r[i]) / h;
+            }
+        }
+        let mut jtj = [[0.0; 3]; 3];
+        let mut jtr = [0.0; 3];
+        for i in 0..r.len() {
+            for a in 0..3 {
+                jtr[a] += jac[i][a] * r[i];
+                for b in 0..3 {
+                    jtj[a][b] += jac[i][a] * jac[i][b];
+                }
+            }
+        }
+        let mut improved = false;
+        for _ in 0..10 {
+            let mut m = jtj;
+            for a in 0..3 {
+                m[a][a] *= 1.0 + lambda;
+            }
+            let Some(step) = solve3(m, jtr) else { break };
+            let q = [p[0] - step[0], p[1] - step[1], p[2] - step[2]];
+            let rq = residuals(&q);
+            if cost(&rq).is_finite() && cost(&rq) < cost(&r) {
+                p = q;
+                r = rq;
+                lambda *= 0.3;
+                improved = true;
+                break;
+            }
+            lambda *= 10.0;
+        }
+        if !improved {
+            break;
+        }
+    }
+    let m = model(&p);
+    let errors = r.iter().map(|x| x.abs());
+    figures(
+        format!(
+            "Cook-Torrance GGX (kd {:.3}, f0 {:.3}, alpha {:.4})",
+            m.kd[0], m.f0[0], m.alpha
+        ),
+        3,
+        errors,
+        start,
+    )
+}
+
+fn solve3(a: [[f64; 3]; 3], b: [f64; 3]) -> Option<[f64; 3]> {
+    let det = |m: &[[f64; 3]; 3]| {
+        m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
+            - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+            + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
+    };
+    let d = det(&a);
+    if d.abs() < 1e-300 || !d.is_finite() {
+        return None;
+    }
+    let mut x = [0.0; 3];
+    for k in 0..3 {
+        let mut m = a;
+        for i in 0..3 {
+            m[i][k] = b[i];
+        }
+        x[k] = det(&m) / d;
+    }
+    Some(x)
+}
