@@ -97,10 +97,11 @@ pub fn cook_torrance(samples: &Samples, used: &[usize], c: usize) -> BaselineRep
             (wi, wo, r.value[c])
         })
         .collect();
+    // Logarithmic parameters keep kd, f0 and alpha positive.
     let model = |p: &[f64; 3]| CookTorranceGgx {
-        kd: [p[0].abs(); 3],
-        f0: [p[1].abs().min(1.0); 3],
-        alpha: p[2].abs().max(1e-4),
+        kd: [p[0].exp(); 3],
+        f0: [p[1].exp().min(1.0); 3],
+        alpha: p[2].exp().clamp(1e-4, 10.0),
     };
     let residuals = |p: &[f64; 3]| -> Vec<f64> {
         let m = model(p);
@@ -109,7 +110,16 @@ pub fn cook_torrance(samples: &Samples, used: &[usize], c: usize) -> BaselineRep
             .collect()
     };
     let cost = |r: &[f64]| r.iter().map(|x| x * x).sum::<f64>();
-    let mut p = [0.1, 0.5, 0.2];
+    // Start from a diffuse level at the median value, a dielectric Fresnel
+    // term and a moderate roughness.
+    let mut vals: Vec<f64> = rows.iter().map(|r| r.2).collect();
+    vals.sort_by(f64::total_cmp);
+    let median = vals.get(vals.len() / 2).copied().unwrap_or(0.1).max(1e-6);
+    let mut p = [
+        (median * std::f64::consts::PI).ln(),
+        0.05f64.ln(),
+        0.1f64.ln(),
+    ];
     let mut r = residuals(&p);
     let mut lambda = 1e-3;
     for _ in 0..100 {
@@ -117,7 +127,7 @@ pub fn cook_torrance(samples: &Samples, used: &[usize], c: usize) -> BaselineRep
         let mut jac = vec![[0.0; 3]; r.len()];
         for k in 0..3 {
             let mut q = p;
-            let h = 1e-6 * p[k].abs().max(1e-3);
+            let h = 1e-6;
             q[k] += h;
             let rk = residuals(&q);
             for i in 0..r.len() {

@@ -25,6 +25,8 @@ pub struct CompactChannel {
     pub num: Vec<f32>,
     /// Denominator coefficients.
     pub den: Vec<f32>,
+    /// Largest degree per coordinate (derived from `indices`).
+    pub degrees: Vec<usize>,
 }
 
 /// A fitted BRDF in f32.
@@ -59,15 +61,50 @@ pub fn univariate_f32(family: BasisFamily, t: f32, out: &mut [f32]) {
 impl CompactChannel {
     /// Largest degree per coordinate.
     pub fn max_degree(&self, k: usize) -> usize {
-        self.indices
-            .iter()
-            .map(|i| i[k] as usize)
-            .max()
-            .unwrap_or(0)
+        self.degrees[k]
     }
 
-    /// `p(x) / q(x)` in f32.
+    fn degrees_of(indices: &[Vec<u16>], dims: usize) -> Vec<usize> {
+        (0..dims)
+            .map(|k| indices.iter().map(|i| i[k] as usize).max().unwrap_or(0))
+            .collect()
+    }
+
+    /// `p(x) / q(x)` in f32 (no allocation for degrees up to 63).
     pub fn eval(&self, x: &[f32]) -> f32 {
+        const MAX: usize = 64;
+        let d = self.lower.len();
+        let mut tables = [[0.0f32; MAX]; 3];
+        for k in 0..d.min(3) {
+            let w = self.upper[k] - self.lower[k];
+            let t = if w > 0.0 {
+                2.0 * (x[k] - self.lower[k]) / w - 1.0
+            } else {
+                0.0
+            };
+            let deg = self.max_degree(k);
+            if deg >= MAX {
+                return self.eval_slow(x);
+            }
+            univariate_f32(self.family, t, &mut tables[k][..=deg]);
+        }
+        let (mut p, mut q) = (0.0f32, 0.0f32);
+        for (j, idx) in self.indices.iter().enumerate() {
+            let mut phi = 1.0f32;
+            for k in 0..d {
+                phi *= tables[k][idx[k] as usize];
+            }
+            if j < self.num.len() {
+                p += self.num[j] * phi;
+            }
+            if j < self.den.len() {
+                q += self.den[j] * phi;
+            }
+        }
+        p / q
+    }
+
+    fn eval_slow(&self, x: &[f32]) -> f32 {
         let d = self.lower.len();
         let mut tables: Vec<Vec<f32>> = Vec::with_capacity(d);
         for k in 0..d {
@@ -83,10 +120,7 @@ impl CompactChannel {
         }
         let (mut p, mut q) = (0.0f32, 0.0f32);
         for (j, idx) in self.indices.iter().enumerate() {
-            let mut phi = 1.0f32;
-            for k in 0..d {
-                phi *= tables[k][idx[k] as usize];
-            }
+            let phi: f32 = (0..d).map(|k| tables[k][idx[k] as usize]).product();
             if j < self.num.len() {
                 p += self.num[j] * phi;
             }
@@ -134,11 +168,14 @@ impl CompactBrdf {
             .iter()
             .map(|r| {
                 let b = r.basis();
+                let indices: Vec<Vec<u16>> =
+                    (0..b.len()).map(|j| b.multi_index(j).to_vec()).collect();
                 CompactChannel {
+                    degrees: CompactChannel::degrees_of(&indices, b.dim()),
                     family: b.family(),
                     lower: b.domain().lower.iter().map(|&v| v as f32).collect(),
                     upper: b.domain().upper.iter().map(|&v| v as f32).collect(),
-                    indices: (0..b.len()).map(|j| b.multi_index(j).to_vec()).collect(),
+                    indices,
                     num: r.numerator().iter().map(|&v| v as f32).collect(),
                     den: r.denominator().iter().map(|&v| v as f32).collect(),
                 }
@@ -254,11 +291,13 @@ impl CompactBrdf {
                 .chunks_exact(4)
                 .map(|c| f32::from_le_bytes(c.try_into().expect("4")))
                 .collect();
+            let indices = rational_core::graded_indices(dims, n_p.max(n_q));
             channels.push(CompactChannel {
+                degrees: CompactChannel::degrees_of(&indices, dims),
                 family,
                 lower: v[..dims].to_vec(),
                 upper: v[dims..2 * dims].to_vec(),
-                indices: rational_core::graded_indices(dims, n_p.max(n_q)),
+                indices,
                 num: v[2 * dims..2 * dims + n_p].to_vec(),
                 den: v[2 * dims + n_p..].to_vec(),
             });

@@ -75,7 +75,7 @@ pub struct Reduction {
 
 impl Default for Reduction {
     /// The 2-D slice on the MERL grid (90 x 90), sqrt-warped `theta_h`,
-    /// grazing `theta_d > 78` degrees cut, directions within 85 degrees of
+    /// grazing `theta_d > 78` degrees cut, directions within 70 degrees of
     /// the normal.
     fn default() -> Self {
         Self {
@@ -85,7 +85,7 @@ impl Default for Reduction {
             n_theta_d: 90,
             n_phi_d: 180,
             max_theta_d_deg: 78.0,
-            max_elevation_deg: 85.0,
+            max_elevation_deg: 70.0,
         }
     }
 }

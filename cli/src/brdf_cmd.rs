@@ -40,7 +40,7 @@ pub struct FitArgs {
     #[arg(long, default_value_t = 78.0)]
     max_theta_d: f64,
     /// Cells with either direction further than this from the normal (degrees) are not sampled.
-    #[arg(long, default_value_t = 85.0)]
+    #[arg(long, default_value_t = 70.0)]
     max_elevation: f64,
     /// Grid resolution as NH,ND[,NP] (theta_h, theta_d, phi_d bins).
     #[arg(long)]
