@@ -62,7 +62,7 @@ fn three_d_fit_covers_phi_d() {
         report
             .channels
             .iter()
-            .all(|c| c.verified && c.samples > 2000),
+            .all(|c| c.verified && c.samples > 1000),
         "{report}"
     );
     assert_eq!(fitted.channels[0].dim(), 3);
