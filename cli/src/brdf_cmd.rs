@@ -42,7 +42,7 @@ pub struct FitArgs {
     /// Cells with either direction further than this from the normal (degrees) are not sampled.
     #[arg(long, default_value_t = 70.0)]
     max_elevation: f64,
-    /// Grid resolution as NH,ND[,NP] (theta_h, theta_d, phi_d bins).
+    /// Grid resolution as `NH,ND[,NP]` (theta_h, theta_d, phi_d bins).
     #[arg(long)]
     resolution: Option<String>,
     /// Solver backend.
