@@ -4,6 +4,7 @@ mod brdf_cmd;
 mod csv;
 mod demo;
 mod npy;
+mod plot;
 mod png;
 mod progress;
 mod sphere;
@@ -67,6 +68,23 @@ enum Command {
         /// Output file (default: standard output for shader source).
         #[arg(short = 'o', long = "output")]
         output: Option<PathBuf>,
+    },
+    /// Plot theta_h slices of the data and of a BRDF fit at several theta_d
+    /// (log scale, slice phi_d = pi/2): dots are data, lines the fit.
+    Plot {
+        /// A fit written by `ratfit fit`.
+        fit: PathBuf,
+        /// The measured material the fit came from.
+        material: PathBuf,
+        /// Its format: merl or rgl.
+        #[arg(long)]
+        format: String,
+        /// Channel: r, g or b.
+        #[arg(long, default_value = "g")]
+        channel: String,
+        /// Output PNG.
+        #[arg(short = 'o', long = "output")]
+        output: PathBuf,
     },
     /// Write G and h of one P(n_p, n_q) instance as .npy files.
     DumpQp {
@@ -308,6 +326,41 @@ fn main() -> Result<()> {
                 None if to == "binary" => bail!("give -o FILE for binary output"),
                 None => print!("{}", String::from_utf8_lossy(&bytes)),
             }
+        }
+        Command::Plot {
+            fit: path,
+            material,
+            format,
+            channel,
+            output,
+        } => {
+            let text = std::fs::read_to_string(&path)
+                .with_context(|| format!("cannot read {}", path.display()))?;
+            let value: serde_json::Value = serde_json::from_str(&text)
+                .with_context(|| format!("{} is not JSON", path.display()))?;
+            let fitted = brdf_cmd::load_fitted(&value).with_context(|| {
+                format!(
+                    "{} is not a BRDF fit (write one with `ratfit fit`)",
+                    path.display()
+                )
+            })??;
+            let data = brdf_cmd::load_material(&material, &format)?;
+            let c = match channel.as_str() {
+                "r" => 0,
+                "g" => 1,
+                "b" => 2,
+                other => bail!("unknown channel `{other}` (r, g, b)"),
+            };
+            let cut = fitted.reduction.max_theta_d_deg;
+            let degs: Vec<f64> = [0.0, 20.0, 40.0, 60.0, cut]
+                .into_iter()
+                .filter(|d| *d <= cut)
+                .collect();
+            plot::slices(data.as_ref(), &fitted, c, &degs, &output)?;
+            eprintln!(
+                "wrote {} (theta_d = {degs:?} degrees; dots: data, lines: fit)",
+                output.display()
+            );
         }
         Command::DumpQp {
             data,

@@ -87,6 +87,16 @@ pub fn write_linear(path: &Path, width: usize, height: usize, rgb: &[[f64; 3]]) 
         .with_context(|| format!("cannot write {}", path.display()))
 }
 
+/// Writes display-ready RGB in [0, 1] (no transfer function) as PNG.
+pub fn write_srgb_raw(path: &Path, width: usize, height: usize, rgb: &[[f64; 3]]) -> Result<()> {
+    let bytes: Vec<u8> = rgb
+        .iter()
+        .flat_map(|p| p.map(|v| (v.clamp(0.0, 1.0) * 255.0 + 0.5) as u8))
+        .collect();
+    std::fs::write(path, encode(width, height, &bytes))
+        .with_context(|| format!("cannot write {}", path.display()))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

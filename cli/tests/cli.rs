@@ -191,3 +191,82 @@ fn brdf_demo_fits_renders_and_exports() {
     assert!(png.starts_with(b"\x89PNG"));
     std::fs::remove_dir_all(dir).ok();
 }
+
+#[test]
+fn fit_eval_export_and_plot_a_merl_file() {
+    // A MERL file written from an analytic material stands in for a download.
+    let dir = scratch("merl");
+    let merl = dir.join("m.binary");
+    brdf::MerlBrdf::tabulate(
+        &brdf::BlinnPhong {
+            kd: [0.2, 0.3, 0.4],
+            ks: [0.3; 3],
+            exponent: 20.0,
+        },
+        brdf::TabulateOptions::default(),
+    )
+    .write(&merl)
+    .unwrap();
+    let fit = dir.join("fit.json");
+    let out = ratfit()
+        .arg("fit")
+        .arg(&merl)
+        .args(["--format", "merl", "--resolution", "30,30", "-o"])
+        .arg(&fit)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let dirs = dir.join("dirs.csv");
+    std::fs::write(
+        &dirs,
+        "theta_i,phi_i,theta_o,phi_o\n0.3,0.0,0.4,3.0\n0.5,1.0,0.2,2.0\n",
+    )
+    .unwrap();
+    let out = ratfit()
+        .arg("eval")
+        .arg(&fit)
+        .arg("--directions")
+        .arg(&dirs)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let rows: Vec<Vec<f64>> = String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
+        .collect();
+    assert_eq!(rows.len(), 2);
+    assert!(rows
+        .iter()
+        .all(|r| r.len() == 3 && r.iter().all(|v| *v > 0.0)));
+    let out = ratfit()
+        .arg("export")
+        .arg(&fit)
+        .args(["--to", "wgsl"])
+        .output()
+        .unwrap();
+    assert!(String::from_utf8_lossy(&out.stdout).contains("fn ratfit_brdf("));
+    let png = dir.join("slices.png");
+    let out = ratfit()
+        .arg("plot")
+        .arg(&fit)
+        .arg(&merl)
+        .args(["--format", "merl", "-o"])
+        .arg(&png)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(std::fs::read(&png).unwrap().starts_with(b"\x89PNG"));
+    std::fs::remove_dir_all(dir).ok();
+}
