@@ -235,7 +235,27 @@ fn load_function(value: &serde_json::Value, path: &Path) -> Result<RationalFunct
         .with_context(|| format!("{} does not hold a rational function", path.display()))
 }
 
+/// A reader that stops early (`ratfit demo | head`) closes our standard
+/// output; printing then fails with a broken pipe, which is not an error of
+/// ours: exit quietly instead of reporting a panic.
+fn exit_quietly_on_broken_pipe() {
+    let default = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        let message = info
+            .payload()
+            .downcast_ref::<String>()
+            .map(String::as_str)
+            .or_else(|| info.payload().downcast_ref::<&str>().copied())
+            .unwrap_or("");
+        if message.contains("Broken pipe") {
+            std::process::exit(0);
+        }
+        default(info);
+    }));
+}
+
 fn main() -> Result<()> {
+    exit_quietly_on_broken_pipe();
     match Cli::parse().command {
         Command::FitCsv {
             data,
