@@ -99,20 +99,17 @@ impl AltaRational {
                 })
                 .collect()
             };
-        let mut flush = |min: &Vec<f64>,
-                         max: &Vec<f64>,
-                         np: usize,
-                         nq: usize,
-                         coeffs: &mut Vec<(Vec<u32>, f64)>| {
-            let den = coeffs.split_off(np);
-            channels.push(AltaChannel {
-                min: min.clone(),
-                max: max.clone(),
-                numerator: std::mem::take(coeffs),
-                denominator: den,
-            });
-            let _ = nq;
-        };
+        // Closes one channel: its first `np` coefficients are the numerator.
+        let mut flush =
+            |min: &Vec<f64>, max: &Vec<f64>, np: usize, coeffs: &mut Vec<(Vec<u32>, f64)>| {
+                let den = coeffs.split_off(np);
+                channels.push(AltaChannel {
+                    min: min.clone(),
+                    max: max.clone(),
+                    numerator: std::mem::take(coeffs),
+                    denominator: den,
+                });
+            };
         for (i, line) in text.lines().enumerate() {
             let no = i + 1;
             let t = line.trim();
@@ -135,7 +132,7 @@ impl AltaRational {
                                     p + q
                                 )));
                             }
-                            flush(&min, &max, p, q, &mut coeffs);
+                            flush(&min, &max, p, &mut coeffs);
                         }
                         np = it.next().and_then(|v| v.parse().ok());
                         nq = None;
@@ -184,7 +181,7 @@ impl AltaRational {
         if min.len() != d || max.len() != d {
             return Err(bad(format!("`#MIN`/`#MAX` need {d} values")));
         }
-        flush(&min, &max, p, q, &mut coeffs);
+        flush(&min, &max, p, &mut coeffs);
         Ok(Self {
             dim_in: d,
             param_in,

@@ -58,14 +58,14 @@ pub fn polynomial(data: &IntervalData, family: BasisFamily, n: usize) -> Baselin
     let basis = Basis::new(family, domain, n.max(1)).expect("non-empty basis");
     let s = data.len();
     // Design matrix weighted by 1/v: the residual is the relative error.
-    let rows: Vec<Vec<f64>> = (0..s)
-        .map(|i| {
-            let mut row = vec![0.0; basis.len()];
-            basis.eval_into(data.point(i), &mut row);
-            row.iter().map(|v| v / data.value(i)).collect()
-        })
-        .collect();
-    let a = faer::Mat::<f64>::from_fn(s, basis.len(), |i, j| rows[i][j]);
+    let mut a = faer::Mat::<f64>::zeros(s, basis.len());
+    let mut row = vec![0.0; basis.len()];
+    for i in 0..s {
+        basis.eval_into(data.point(i), &mut row);
+        for (j, v) in row.iter().enumerate() {
+            a[(i, j)] = v / data.value(i);
+        }
+    }
     let b = faer::Mat::<f64>::from_fn(s, 1, |_, _| 1.0);
     let c = a.qr().solve_lstsq(&b);
     let coef: Vec<f64> = (0..basis.len()).map(|j| c[(j, 0)]).collect();

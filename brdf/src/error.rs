@@ -61,3 +61,13 @@ impl BrdfError {
         }
     }
 }
+
+/// The bytes of a file and its stem (the material's name in reports).
+pub(crate) fn read_named(path: &std::path::Path) -> Result<(Vec<u8>, String), BrdfError> {
+    let bytes = std::fs::read(path).map_err(|e| BrdfError::io(path, e))?;
+    let name = path
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    Ok((bytes, name))
+}

@@ -131,11 +131,7 @@ impl MerlBrdf {
     /// Unreadable file, wrong size (a truncated download), wrong dimensions,
     /// non-finite values.
     pub fn read(path: &Path) -> Result<Self, BrdfError> {
-        let bytes = std::fs::read(path).map_err(|e| BrdfError::io(path, e))?;
-        let name = path
-            .file_stem()
-            .map(|s| s.to_string_lossy().into_owned())
-            .unwrap_or_default();
+        let (bytes, name) = crate::error::read_named(path)?;
         Self::from_bytes(&bytes, path, name)
     }
 

@@ -71,7 +71,10 @@ pub fn parse_tensor_file(bytes: &[u8], path: &Path) -> Result<HashMap<String, Fi
                 )))
             }
         };
-        let n: usize = shape.iter().product();
+        let n = shape
+            .iter()
+            .try_fold(1usize, |acc, &d| acc.checked_mul(d))
+            .ok_or_else(|| bad(format!("field `{name}`: shape {shape:?} overflows")))?;
         let raw = bytes
             .get(offset..offset.saturating_add(n.saturating_mul(width)))
             .ok_or_else(|| {
@@ -273,11 +276,7 @@ impl RglBrdf {
     /// Unreadable file, missing fields, inconsistent shapes, anisotropic or
     /// spectral-only files.
     pub fn read(path: &Path) -> Result<Self, BrdfError> {
-        let bytes = std::fs::read(path).map_err(|e| BrdfError::io(path, e))?;
-        let name = path
-            .file_stem()
-            .map(|s| s.to_string_lossy().into_owned())
-            .unwrap_or_default();
+        let (bytes, name) = crate::error::read_named(path)?;
         Self::from_bytes(&bytes, path, name)
     }
 
@@ -302,6 +301,11 @@ impl RglBrdf {
             .map(|d| d.data.iter().map(|&c| c as u8 as char).collect())
             .unwrap_or_default();
         let (nt, np) = (theta_i.data.len(), phi_i.data.len());
+        if nt == 0 || np == 0 {
+            return Err(bad(format!(
+                "{nt} theta_i and {np} phi_i values: need at least one each"
+            )));
+        }
         if np > 2 {
             return Err(bad(format!(
                 "{np} phi_i values: anisotropic files are not supported"
@@ -331,6 +335,18 @@ impl RglBrdf {
             if let Some(v) = fl.data.iter().find(|v| !v.is_finite()) {
                 return Err(bad(format!("`{n}` holds a non-finite value ({v})")));
             }
+        }
+        // The VNDF is a density per (phi_i, theta_i) slice: its warp needs
+        // non-negative values with a positive integral.
+        let slice = vndf.shape[2] * vndf.shape[3];
+        if let Some(k) = vndf
+            .data
+            .chunks(slice)
+            .position(|c| c.iter().any(|v| *v < 0.0) || c.iter().sum::<f64>() <= 0.0)
+        {
+            return Err(bad(format!(
+                "`vndf` slice {k} is not a density (negative values or zero integral)"
+            )));
         }
         let params2 = vec![phi_i.data.clone(), theta_i.data.clone()];
         Ok(Self {

@@ -3,7 +3,7 @@
 //! reduction's coordinates (no grid).
 
 use crate::geometry::{from_spherical, HalfDiff, Vec3};
-use crate::reduce::{Reduction, ReductionKind, SampleRow, Samples};
+use crate::reduce::{Reduction, SampleRow, Samples};
 use crate::BrdfError;
 use std::path::Path;
 
@@ -184,7 +184,6 @@ impl ScatteredBrdf {
                 }
             })
             .collect();
-        let _ = ReductionKind::Slice2d;
         Samples { dims, rows }
     }
 }

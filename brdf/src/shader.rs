@@ -20,8 +20,6 @@ struct Syntax {
     float: &'static str,
     vec3: &'static str,
     atan2: &'static str,
-    let_: &'static str,
-    var: &'static str,
 }
 
 fn syntax(l: Language) -> Syntax {
@@ -30,15 +28,11 @@ fn syntax(l: Language) -> Syntax {
             float: "f32",
             vec3: "vec3<f32>",
             atan2: "atan2",
-            let_: "let",
-            var: "var",
         },
         Language::Glsl => Syntax {
             float: "float",
             vec3: "vec3",
             atan2: "atan",
-            let_: "float",
-            var: "float",
         },
     }
 }
@@ -214,6 +208,5 @@ pub fn shader_source(b: &CompactBrdf, l: Language) -> String {
         "    return max({v3}({}), {v3}(0.0, 0.0, 0.0));\n}}\n",
         calls.join(", ")
     );
-    let _ = (s.let_, s.var);
     out
 }

@@ -176,6 +176,23 @@ fn run_fit_alta(args: &FitArgs, settings: &FitSettings) -> Result<()> {
     Ok(())
 }
 
+/// Reads a JSON file.
+pub fn read_json(path: &Path) -> Result<serde_json::Value> {
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+    serde_json::from_str(&text).with_context(|| format!("{} is not JSON", path.display()))
+}
+
+/// Reads a fitted BRDF file written by `ratfit fit`.
+pub fn read_fitted(path: &Path) -> Result<FittedBrdf> {
+    load_fitted(&read_json(path)?).with_context(|| {
+        format!(
+            "{} is not a BRDF fit (write one with `ratfit fit`)",
+            path.display()
+        )
+    })?
+}
+
 /// Loads a fitted BRDF written by `ratfit fit`.
 pub fn load_fitted(value: &serde_json::Value) -> Option<Result<FittedBrdf>> {
     value

@@ -283,10 +283,7 @@ fn main() -> Result<()> {
             points,
             directions,
         } => {
-            let text = std::fs::read_to_string(&path)
-                .with_context(|| format!("cannot read {}", path.display()))?;
-            let value: serde_json::Value = serde_json::from_str(&text)
-                .with_context(|| format!("{} is not JSON", path.display()))?;
+            let value = brdf_cmd::read_json(&path)?;
             if let Some(fitted) = brdf_cmd::load_fitted(&value) {
                 let dirs = directions.context("a BRDF fit is evaluated at --directions")?;
                 print!(
@@ -317,16 +314,7 @@ fn main() -> Result<()> {
             to,
             output,
         } => {
-            let text = std::fs::read_to_string(&path)
-                .with_context(|| format!("cannot read {}", path.display()))?;
-            let value: serde_json::Value = serde_json::from_str(&text)
-                .with_context(|| format!("{} is not JSON", path.display()))?;
-            let fitted = brdf_cmd::load_fitted(&value).with_context(|| {
-                format!(
-                    "{} is not a BRDF fit (write one with `ratfit fit`)",
-                    path.display()
-                )
-            })??;
+            let fitted = brdf_cmd::read_fitted(&path)?;
             let compact = brdf::CompactBrdf::from_fitted(&fitted);
             let bytes =
                 match to.as_str() {
@@ -354,16 +342,7 @@ fn main() -> Result<()> {
             channel,
             output,
         } => {
-            let text = std::fs::read_to_string(&path)
-                .with_context(|| format!("cannot read {}", path.display()))?;
-            let value: serde_json::Value = serde_json::from_str(&text)
-                .with_context(|| format!("{} is not JSON", path.display()))?;
-            let fitted = brdf_cmd::load_fitted(&value).with_context(|| {
-                format!(
-                    "{} is not a BRDF fit (write one with `ratfit fit`)",
-                    path.display()
-                )
-            })??;
+            let fitted = brdf_cmd::read_fitted(&path)?;
             let data = brdf_cmd::load_material(&material, &format)?;
             let c = match channel.as_str() {
                 "r" => 0,

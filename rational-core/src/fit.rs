@@ -133,7 +133,9 @@ impl<'a> Prepared<'a> {
             certified: None,
         };
         let mut warm = Vec::new();
-        loop {
+        // Each exit of the loop names the outcome; the timing and the result
+        // are assembled once below.
+        let (function, verification) = loop {
             let problem = self.problem(data, n_p, n_q, &rows)?;
             let options = self.settings.solve_options.clone().with_warm_start(warm);
             let sol = self.settings.backend.solve(&problem, &options)?;
@@ -143,11 +145,11 @@ impl<'a> Prepared<'a> {
             // P(n_p, n_q) is homogeneous: any point with every row strictly
             // positive (depth > 0) is a valid fit after rescaling, even if a
             // backend stopped at G c >= 1 - 1e-9 instead of G c >= 1.
-            let usable = matches!(sol.status, Status::Solved | Status::Inaccurate)
-                && sol.residuals.depth > 0.0
-                && sol.x.iter().all(|v| v.is_finite());
+            let claimed = matches!(sol.status, Status::Solved | Status::Inaccurate);
+            let usable =
+                claimed && sol.residuals.depth > 0.0 && sol.x.iter().all(|v| v.is_finite());
             if !usable {
-                summary.note = if matches!(sol.status, Status::Solved | Status::Inaccurate) {
+                summary.note = if claimed {
                     format!(
                         "backend reported solved; verifier found violation {:.2e}",
                         sol.residuals.max_violation
@@ -155,13 +157,7 @@ impl<'a> Prepared<'a> {
                 } else {
                     sol.status.to_string()
                 };
-                summary.seconds = start.elapsed().as_secs_f64();
-                return Ok(SplitFit {
-                    summary,
-                    function: None,
-                    verification: None,
-                    poles,
-                });
+                break (None, None);
             }
             warm = sol.active_set.clone();
             let f = RationalFunction::new(
@@ -176,13 +172,7 @@ impl<'a> Prepared<'a> {
                     "verification failed at {} (violation {:.2e})",
                     ver.worst, ver.max_violation
                 );
-                summary.seconds = start.elapsed().as_secs_f64();
-                return Ok(SplitFit {
-                    summary,
-                    function: None,
-                    verification: Some(ver),
-                    poles,
-                });
+                break (None, Some(ver));
             }
             match self.settings.pole_control {
                 PoleControl::None => {}
@@ -191,18 +181,13 @@ impl<'a> Prepared<'a> {
                     poles.certified = Some(m > 0.0);
                     if m <= 0.0 {
                         summary.note = "Bernstein certificate failed".into();
-                        summary.seconds = start.elapsed().as_secs_f64();
-                        return Ok(SplitFit {
-                            summary,
-                            function: None,
-                            verification: Some(ver),
-                            poles,
-                        });
+                        break (None, Some(ver));
                     }
                 }
                 PoleControl::DenseGrid { points_per_dim } => {
                     let g = grid_size(data.len(), data.dim(), points_per_dim);
                     let (min, bad) = grid_check(f.basis(), f.denominator(), g, 4 * n_q + 8);
+                    // min_q / min_q_ratio is the largest q at the samples.
                     poles.grid_min_q =
                         Some(min / ver.min_q.max(f64::MIN_POSITIVE) * ver.min_q_ratio);
                     if !bad.is_empty() {
@@ -211,13 +196,7 @@ impl<'a> Prepared<'a> {
                                 "q <= 0 at {} grid points after {MAX_POLE_ROUNDS} rounds",
                                 bad.len()
                             );
-                            summary.seconds = start.elapsed().as_secs_f64();
-                            return Ok(SplitFit {
-                                summary,
-                                function: None,
-                                verification: Some(ver),
-                                poles,
-                            });
+                            break (None, Some(ver));
                         }
                         summary.pole_rounds += 1;
                         let mut phi = vec![0.0; split_basis.len()];
@@ -235,14 +214,15 @@ impl<'a> Prepared<'a> {
             if want_condition {
                 summary.condition_number = Some(condition_number(&problem));
             }
-            summary.seconds = start.elapsed().as_secs_f64();
-            return Ok(SplitFit {
-                summary,
-                function: Some(f),
-                verification: Some(ver),
-                poles,
-            });
-        }
+            break (Some(f), Some(ver));
+        };
+        summary.seconds = start.elapsed().as_secs_f64();
+        Ok(SplitFit {
+            summary,
+            function,
+            verification,
+            poles,
+        })
     }
 }
 

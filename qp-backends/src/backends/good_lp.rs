@@ -27,6 +27,16 @@ impl LdpSolver for GoodLpSolver {
     fn solve(&self, problem: &LdpProblem, _options: &SolveOptions) -> Result<Solution, Error> {
         let (m, n) = (problem.rows(), problem.cols());
         let norms = problem.row_norms();
+        let infeasible = || {
+            Solution::measured(
+                problem,
+                Status::Infeasible,
+                vec![0.0; n],
+                0,
+                vec![],
+                "good_lp",
+            )
+        };
         let mut vars = ProblemVariables::new();
         let y: Vec<_> = (0..n)
             .map(|_| vars.add(variable().min(-1.0).max(1.0)))
@@ -37,14 +47,7 @@ impl LdpSolver for GoodLpSolver {
         for j in 0..m {
             if norms[j] == 0.0 {
                 if problem.h()[j] > 0.0 {
-                    return Ok(Solution::measured(
-                        problem,
-                        Status::Infeasible,
-                        vec![0.0; n],
-                        0,
-                        vec![],
-                        "good_lp",
-                    ));
+                    return Ok(infeasible());
                 }
                 continue;
             }
@@ -59,16 +62,7 @@ impl LdpSolver for GoodLpSolver {
         }
         let sol = match model.solve() {
             Ok(sol) => sol,
-            Err(ResolutionError::Infeasible) => {
-                return Ok(Solution::measured(
-                    problem,
-                    Status::Infeasible,
-                    vec![0.0; n],
-                    0,
-                    vec![],
-                    "good_lp",
-                ))
-            }
+            Err(ResolutionError::Infeasible) => return Ok(infeasible()),
             Err(e) => {
                 return Err(Error::BackendFailure {
                     backend: "good_lp",
@@ -80,14 +74,7 @@ impl LdpSolver for GoodLpSolver {
         let sv = sol.value(s);
         let yv: Vec<f64> = y.iter().map(|v| sol.value(*v)).collect();
         if tv <= 0.0 {
-            return Ok(Solution::measured(
-                problem,
-                Status::Infeasible,
-                vec![0.0; n],
-                0,
-                vec![],
-                "good_lp",
-            ));
+            return Ok(infeasible());
         }
         let x: Vec<f64> = if sv > 1e-9 {
             yv.iter().map(|v| v / sv).collect()
