@@ -1,6 +1,7 @@
 //! `ratfit`: fit data with rational functions inside error bounds.
 
 mod brdf_cmd;
+mod cdf_cmd;
 mod csv;
 mod demo;
 mod npy;
@@ -111,6 +112,12 @@ enum Command {
         #[arg(long, default_value = ".")]
         out: PathBuf,
     },
+    /// Fit rational inverse CDFs of a material for importance sampling and
+    /// print the fit report.
+    Cdf(cdf_cmd::CdfArgs),
+    /// Variance and cost of the cosine, tabulated and rational samplers:
+    /// albedo estimates at equal sample count against quadrature.
+    SampleStats(cdf_cmd::StatsArgs),
     /// List the solver backends compiled into this build.
     Backends,
 }
@@ -278,6 +285,8 @@ fn main() -> Result<()> {
             eprintln!("wrote {}", output.display());
         }
         Command::Fit(args) => brdf_cmd::run_fit(args)?,
+        Command::Cdf(args) => cdf_cmd::run_cdf(args)?,
+        Command::SampleStats(args) => cdf_cmd::run_stats(args)?,
         Command::Eval {
             fit: path,
             points,

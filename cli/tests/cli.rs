@@ -270,3 +270,87 @@ fn fit_eval_export_and_plot_a_merl_file() {
     assert!(std::fs::read(&png).unwrap().starts_with(b"\x89PNG"));
     std::fs::remove_dir_all(dir).ok();
 }
+
+#[test]
+fn cdf_fit_and_sampler_statistics_of_a_fitted_material() {
+    let dir = scratch("cdf");
+    let merl = dir.join("m.binary");
+    brdf::MerlBrdf::tabulate(
+        &brdf::BlinnPhong {
+            kd: [0.2, 0.3, 0.4],
+            ks: [0.4; 3],
+            exponent: 30.0,
+        },
+        brdf::TabulateOptions::default(),
+    )
+    .write(&merl)
+    .unwrap();
+    let fit = dir.join("fit.json");
+    let status = ratfit()
+        .arg("fit")
+        .arg(&merl)
+        .args(["--format", "merl", "--resolution", "24,24", "-o"])
+        .arg(&fit)
+        .output()
+        .unwrap();
+    assert!(
+        status.status.success(),
+        "{}",
+        String::from_utf8_lossy(&status.stderr)
+    );
+    let cdf = dir.join("cdf.json");
+    let out = ratfit()
+        .arg("cdf")
+        .arg(&fit)
+        .args(["--format", "fit", "--views", "6", "--cells", "24,24", "-o"])
+        .arg(&cdf)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let report = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        report.contains("theta") && report.contains("phi"),
+        "{report}"
+    );
+    assert!(report.contains("coefficient bytes"), "{report}");
+
+    let csv = dir.join("stats.csv");
+    let out = ratfit()
+        .arg("sample-stats")
+        .arg(&cdf)
+        .arg(&fit)
+        .args(["--samples", "20000", "--views", "0,45", "--csv"])
+        .arg(&csv)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8_lossy(&out.stdout);
+    for name in ["cosine", "tabulated", "rational"] {
+        let rows = text
+            .lines()
+            .filter(|l| l.split_whitespace().nth(1) == Some(name))
+            .count();
+        assert_eq!(rows, 2, "{text}");
+    }
+    let rows = std::fs::read_to_string(&csv).unwrap();
+    assert_eq!(rows.lines().count(), 1 + 6, "{rows}");
+
+    // A BRDF fit is not an inverse CDF: named, not a panic.
+    let out = ratfit()
+        .arg("sample-stats")
+        .arg(&fit)
+        .arg(&fit)
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("is not written by `ratfit cdf`"), "{err}");
+}

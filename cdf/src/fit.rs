@@ -1,0 +1,705 @@
+//! Fitting the two inverse CDFs of a [`CdfTable`] with rational-core: the
+//! data are the tabulated inverse CDFs with intervals taken in CDF space
+//! (`[F^-1(u - delta), F^-1(u + delta)]`: narrow where the density is high,
+//! wide where it is low), the known part of the model subtracted, and the
+//! monotonicity rows added; the budget is searched by doubling and bisection;
+//! monotonicity is then checked on a grid denser than the data, and points
+//! where the derivative is negative are added as constraints before solving
+//! again.
+
+use crate::error::invalid;
+use crate::model::{Component, InverseCdf, RationalCdf};
+use crate::monotone::{MonotonePoint, MonotoneRows};
+use crate::{CdfError, CdfTable};
+use rational_core::{
+    fit_split_with_constraints, Domain, FitError, FitSettings, IntervalData, PoleControl,
+    RationalFunction,
+};
+use rayon::prelude::*;
+use serde::Serialize;
+use std::f64::consts::FRAC_PI_2;
+use std::fmt;
+use std::time::Instant;
+
+/// Settings of [`fit_table`].
+#[derive(Debug, Clone)]
+pub struct CdfFitSettings {
+    cdf_tolerance: f64,
+    min_half_width: f64,
+    mu_samples: usize,
+    tau_samples: usize,
+    phi_rows: usize,
+    phi_view_stride: usize,
+    max_coeffs: [usize; 2],
+    widenings: usize,
+    refinement_rounds: usize,
+    check_density: usize,
+    engine: FitSettings,
+}
+
+impl Default for CdfFitSettings {
+    /// Intervals of +-0.05 in CDF space (at least +-1e-3 rad), 32 steps in
+    /// `mu` per view, 16 in `tau` on 16 rows of `theta_l` at every other
+    /// view, at most 64 (theta) and 120 (phi) coefficients, 4 doublings of
+    /// the tolerance, 4 refinement rounds, a check grid 4x denser than the
+    /// data.
+    fn default() -> Self {
+        Self {
+            cdf_tolerance: 0.05,
+            min_half_width: 1e-3,
+            mu_samples: 32,
+            tau_samples: 16,
+            phi_rows: 16,
+            phi_view_stride: 2,
+            max_coeffs: [64, 120],
+            widenings: 4,
+            refinement_rounds: 4,
+            check_density: 4,
+            engine: FitSettings::default(),
+        }
+    }
+}
+
+impl CdfFitSettings {
+    /// Half-width of every interval in CDF space, and the smallest half-width
+    /// in radians.
+    ///
+    /// # Errors
+    /// Not in `(0, 0.5)`, or a negative or non-finite minimum.
+    pub fn with_tolerance(mut self, cdf: f64, min_radians: f64) -> Result<Self, CdfError> {
+        if !(cdf > 0.0 && cdf < 0.5) {
+            return Err(invalid(
+                "cdf tolerance",
+                format!("{cdf} is outside (0, 0.5)"),
+            ));
+        }
+        if !(min_radians.is_finite() && min_radians >= 0.0) {
+            return Err(invalid("minimum half-width", format!("{min_radians}")));
+        }
+        self.cdf_tolerance = cdf;
+        self.min_half_width = min_radians;
+        Ok(self)
+    }
+
+    /// Steps in `mu` (per view) and `tau` (per view and row), rows of
+    /// `theta_l` for the phi data, and the stride through the table's views
+    /// for the phi data.
+    ///
+    /// # Errors
+    /// Fewer than 4 steps or rows, a zero stride.
+    pub fn with_samples(
+        mut self,
+        mu: usize,
+        tau: usize,
+        phi_rows: usize,
+        phi_view_stride: usize,
+    ) -> Result<Self, CdfError> {
+        if mu < 4 || tau < 4 || phi_rows < 4 || phi_view_stride == 0 {
+            return Err(invalid(
+                "samples",
+                format!("mu {mu}, tau {tau}, rows {phi_rows} (each >= 4), stride {phi_view_stride} (>= 1)"),
+            ));
+        }
+        self.mu_samples = mu;
+        self.tau_samples = tau;
+        self.phi_rows = phi_rows;
+        self.phi_view_stride = phi_view_stride;
+        Ok(self)
+    }
+
+    /// Largest coefficient budgets of the theta and phi fits.
+    ///
+    /// # Errors
+    /// A budget below 2.
+    pub fn with_max_coeffs(mut self, theta: usize, phi: usize) -> Result<Self, CdfError> {
+        if theta < 2 || phi < 2 {
+            return Err(invalid(
+                "max coefficients",
+                format!("{theta}, {phi} (each >= 2)"),
+            ));
+        }
+        self.max_coeffs = [theta, phi];
+        Ok(self)
+    }
+
+    /// How often the CDF tolerance may double when no budget is feasible.
+    pub fn with_widenings(mut self, times: usize) -> Self {
+        self.widenings = times;
+        self
+    }
+
+    /// Rounds of added monotonicity constraints, and how much denser than
+    /// the data the check grid is per coordinate.
+    ///
+    /// # Errors
+    /// A density below 4 (the check must be denser than the data).
+    pub fn with_monotone_check(mut self, rounds: usize, density: usize) -> Result<Self, CdfError> {
+        if density < 4 {
+            return Err(invalid("check density", format!("{density} is below 4")));
+        }
+        self.refinement_rounds = rounds;
+        self.check_density = density;
+        Ok(self)
+    }
+
+    /// Engine settings (basis family, backend, pole control); the domain and
+    /// coefficient range are set per fit.
+    pub fn with_engine(mut self, engine: FitSettings) -> Self {
+        self.engine = engine;
+        self
+    }
+}
+
+/// Figures of one fitted inverse CDF.
+#[derive(Debug, Clone, Serialize)]
+pub struct ComponentReport {
+    /// Which inverse CDF.
+    pub component: Component,
+    /// Numerator coefficients.
+    pub n_p: usize,
+    /// Denominator coefficients.
+    pub n_q: usize,
+    /// Samples fitted (after refinement).
+    pub samples: usize,
+    /// Points carrying monotonicity rows.
+    pub monotone_points: usize,
+    /// Half-width of the intervals in CDF space (after any doubling).
+    pub cdf_tolerance: f64,
+    /// Largest `|r - F^-1|` at the samples (radians).
+    pub max_error_rad: f64,
+    /// Mean `|r - F^-1|` at the samples (radians).
+    pub mean_error_rad: f64,
+    /// Smallest `d r / d u` on the check grid.
+    pub min_derivative: f64,
+    /// Points of the check grid.
+    pub check_points: usize,
+    /// Rounds in which failing grid points were added.
+    pub refinement_rounds: usize,
+    /// Budgets probed by the search.
+    pub budgets_tried: Vec<usize>,
+    /// Smallest `q` at the samples relative to the largest (from the verifier).
+    pub min_q_ratio: f64,
+    /// Wall time (s).
+    pub seconds: f64,
+}
+
+/// Report of [`fit_table`].
+#[derive(Debug, Clone, Serialize)]
+pub struct CdfFitReport {
+    /// Material.
+    pub material: String,
+    /// Theta inverse CDF.
+    pub theta: ComponentReport,
+    /// Phi inverse CDF.
+    pub phi: ComponentReport,
+    /// Coefficient bytes (f32) of both.
+    pub bytes: usize,
+    /// Bytes of the table they replace (f32, with its pdf).
+    pub table_bytes: usize,
+    /// Total wall time (s).
+    pub seconds: f64,
+}
+
+impl fmt::Display for CdfFitReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        writeln!(f, "inverse CDFs of {}", self.material)?;
+        writeln!(
+            f,
+            "  {:<6} {:>9} {:>8} {:>8} {:>10} {:>11} {:>11} {:>12} {:>7} {:>8}",
+            "",
+            "(n_p,n_q)",
+            "samples",
+            "mono",
+            "cdf tol",
+            "max err rad",
+            "mean err",
+            "min dr/du",
+            "rounds",
+            "time s"
+        )?;
+        for c in [&self.theta, &self.phi] {
+            writeln!(
+                f,
+                "  {:<6} {:>9} {:>8} {:>8} {:>10.4} {:>11.3e} {:>11.3e} {:>12.3e} {:>7} {:>8.2}",
+                c.component.name(),
+                format!("({},{})", c.n_p, c.n_q),
+                c.samples,
+                c.monotone_points,
+                c.cdf_tolerance,
+                c.max_error_rad,
+                c.mean_error_rad,
+                c.min_derivative,
+                c.refinement_rounds,
+                c.seconds
+            )?;
+        }
+        write!(
+            f,
+            "  {} coefficient bytes (f32) against {} bytes of table; {:.2} s",
+            self.bytes, self.table_bytes, self.seconds
+        )
+    }
+}
+
+/// Fits both inverse CDFs of `table`.
+///
+/// # Errors
+/// Bad settings, no feasible fit within the budgets and doublings, or a fit
+/// that stays non-monotone on the check grid after the refinement rounds.
+pub fn fit_table(
+    table: &CdfTable,
+    settings: &CdfFitSettings,
+) -> Result<(RationalCdf, CdfFitReport), CdfError> {
+    let start = Instant::now();
+    let (theta, phi) = rayon::join(
+        || fit_component(table, Component::Theta, settings),
+        || fit_component(table, Component::Phi, settings),
+    );
+    let (theta, theta_report) = theta?;
+    let (phi, phi_report) = phi?;
+    let cdf = RationalCdf {
+        material: table.material().to_string(),
+        max_view: table.settings().max_view(),
+        theta,
+        phi,
+    };
+    let report = CdfFitReport {
+        material: cdf.material.clone(),
+        bytes: cdf.byte_size_f32(),
+        table_bytes: table.byte_size_f32(),
+        theta: theta_report,
+        phi: phi_report,
+        seconds: start.elapsed().as_secs_f64(),
+    };
+    Ok((cdf, report))
+}
+
+/// The tabulated inverse CDF and its CDF-space interval at any natural
+/// point: between tabulated views (and `theta_l` rows) the interval is the
+/// hull of the neighbours' intervals and the value their linear blend.
+fn interval_at(
+    table: &CdfTable,
+    c: Component,
+    x: &[f64],
+    delta: f64,
+    min_half: f64,
+) -> (f64, f64, f64) {
+    let u = x[c.sampled()];
+    let snap = |w: f64| {
+        if w < 1e-9 {
+            0.0
+        } else if w > 1.0 - 1e-9 {
+            1.0
+        } else {
+            w
+        }
+    };
+    let (i0, i1, fv) = table.bracket_view(x[0]);
+    let views = [(i0, 1.0 - snap(fv)), (i1, snap(fv))];
+    let rows = match c {
+        Component::Theta => vec![(0, 1.0)],
+        Component::Phi => {
+            let nt = table.cells().0;
+            let r = (x[1] / table.cell_size().0 - 0.5).clamp(0.0, (nt - 1) as f64);
+            let j0 = (r.floor() as usize).min(nt - 1);
+            let j1 = (j0 + 1).min(nt - 1);
+            let fr = snap(r - j0 as f64);
+            vec![(j0, 1.0 - fr), (j1, fr)]
+        }
+    };
+    let inv = |i: usize, j: usize, u: f64| match c {
+        Component::Theta => table.inverse_theta(i, u),
+        Component::Phi => table.inverse_phi(i, j, u),
+    };
+    let (mut lo, mut hi, mut value) = (f64::INFINITY, f64::NEG_INFINITY, 0.0);
+    for &(i, wi) in &views {
+        for &(j, wj) in &rows {
+            if wi * wj == 0.0 {
+                continue;
+            }
+            value += wi * wj * inv(i, j, u);
+            lo = lo.min(inv(i, j, (u - delta).max(0.0)));
+            hi = hi.max(inv(i, j, (u + delta).min(1.0)));
+        }
+    }
+    (lo.min(value - min_half), hi.max(value + min_half), value)
+}
+
+fn uniform(n: usize, a: f64, b: f64) -> Vec<f64> {
+    (0..n)
+        .map(|k| a + (b - a) * k as f64 / (n - 1).max(1) as f64)
+        .collect()
+}
+
+/// Natural coordinates of the data (row-major).
+fn sample_points(table: &CdfTable, c: Component, s: &CdfFitSettings) -> Vec<f64> {
+    let nv = table.settings().views();
+    let mut pts = Vec::new();
+    match c {
+        Component::Theta => {
+            for i in 0..nv {
+                for j in 1..s.mu_samples {
+                    pts.extend([table.view(i), j as f64 / s.mu_samples as f64]);
+                }
+            }
+        }
+        Component::Phi => {
+            let nt = table.cells().0;
+            let mut views: Vec<usize> = (0..nv).step_by(s.phi_view_stride).collect();
+            if views.last() != Some(&(nv - 1)) {
+                views.push(nv - 1);
+            }
+            let rows: Vec<usize> = (0..s.phi_rows.min(nt))
+                .map(|r| {
+                    (((r as f64 + 0.5) * nt as f64 / s.phi_rows.min(nt) as f64) as usize)
+                        .min(nt - 1)
+                })
+                .collect();
+            for &i in &views {
+                for &j in &rows {
+                    for k in 1..s.tau_samples {
+                        pts.extend([
+                            table.view(i),
+                            table.row_theta(j),
+                            k as f64 / s.tau_samples as f64,
+                        ]);
+                    }
+                }
+            }
+        }
+    }
+    pts
+}
+
+/// Natural coordinates of the monotonicity check grid.
+fn check_points(table: &CdfTable, c: Component, s: &CdfFitSettings) -> Vec<f64> {
+    let d = s.check_density;
+    let nv = table.settings().views();
+    let mut pts = Vec::new();
+    match c {
+        Component::Theta => {
+            for tv in uniform(d * nv, 0.0, table.settings().max_view()) {
+                for mu in uniform(d * s.mu_samples + 1, 0.0, 1.0) {
+                    pts.extend([tv, mu]);
+                }
+            }
+        }
+        Component::Phi => {
+            let views = nv.div_ceil(s.phi_view_stride);
+            for tv in uniform(d * views, 0.0, table.settings().max_view()) {
+                for tl in uniform(d * s.phi_rows, 0.0, FRAC_PI_2) {
+                    for tau in uniform(d * s.tau_samples + 1, 0.0, 1.0) {
+                        pts.extend([tv, tl, tau]);
+                    }
+                }
+            }
+        }
+    }
+    pts
+}
+
+/// The problem pieces for a set of natural points.
+struct Assembled {
+    data: IntervalData,
+    monotone: MonotoneRows,
+    /// Natural coordinates and tabulated values of every sample (for errors).
+    natural: Vec<f64>,
+    values: Vec<f64>,
+}
+
+fn assemble(
+    table: &CdfTable,
+    c: Component,
+    natural: &[f64],
+    zero_weight_checks: &[f64],
+    delta: f64,
+    min_half: f64,
+) -> Result<Assembled, CdfError> {
+    let d = c.dim();
+    let n = natural.len() / d;
+    let (mut fit_pts, mut lo, mut hi, mut values, mut base, mut weight) = (
+        Vec::new(),
+        Vec::new(),
+        Vec::new(),
+        Vec::new(),
+        Vec::new(),
+        Vec::new(),
+    );
+    for x in natural.chunks(d) {
+        let (l, h, v) = interval_at(table, c, x, delta, min_half);
+        let k = c.known_part(x);
+        fit_pts.extend(c.fit_coordinates(x));
+        lo.push(l);
+        hi.push(h);
+        values.push(v);
+        base.push(k.base);
+        weight.push(k.weight);
+    }
+    let full = IntervalData::new(d, fit_pts, lo, hi)?.with_values(values.clone())?;
+    let (data, kept) = full.with_known_part(&base, &weight)?;
+    let mut monotone = MonotoneRows::new(d, c.sampled());
+    for (m, &i) in kept.iter().enumerate() {
+        let x = &natural[i * d..(i + 1) * d];
+        monotone.push(
+            data.point(m),
+            MonotonePoint {
+                known: c.known_part(x),
+                lo: data.lo()[m],
+                hi: data.hi()[m],
+            },
+        );
+    }
+    for x in zero_weight_checks.chunks(d) {
+        let known = c.known_part(x);
+        monotone.push(
+            &c.fit_coordinates(x),
+            MonotonePoint {
+                known,
+                lo: 0.0,
+                hi: 0.0,
+            },
+        );
+    }
+    debug_assert_eq!(values.len(), n);
+    Ok(Assembled {
+        data,
+        monotone,
+        natural: natural.to_vec(),
+        values,
+    })
+}
+
+fn domain(c: Component, max_view: f64) -> Result<Domain, CdfError> {
+    Ok(match c {
+        Component::Theta => Domain::new(vec![0.0, 0.0], vec![max_view, 1.0])?,
+        Component::Phi => Domain::new(
+            vec![0.0, 0.0, 0.0],
+            vec![max_view + FRAC_PI_2, max_view * FRAC_PI_2, 1.0],
+        )?,
+    })
+}
+
+/// An accepted split of one budget.
+struct Found {
+    n_p: usize,
+    n_q: usize,
+    function: RationalFunction,
+    min_q_ratio: f64,
+}
+
+/// Fractions of a budget given to the numerator in a probe: a spread of
+/// splits rather than all `N - 1` (the search probes many budgets).
+const PROBE_SPLITS: [f64; 5] = [0.2, 0.35, 0.5, 0.65, 0.8];
+
+/// Solves a spread of splits of budget `n` in parallel; the accepted one
+/// with the smallest condition number, if any.
+fn probe(a: &Assembled, engine: &FitSettings, n: usize) -> Result<Option<Found>, CdfError> {
+    let mut splits: Vec<usize> = PROBE_SPLITS
+        .iter()
+        .map(|f| ((f * n as f64).round() as usize).clamp(1, n - 1))
+        .collect();
+    splits.dedup();
+    let fits = splits
+        .par_iter()
+        .map(|&np| fit_split_with_constraints(&a.data, np, n - np, engine, &a.monotone))
+        .collect::<Result<Vec<_>, FitError>>()?;
+    Ok(fits
+        .into_iter()
+        .filter(|f| f.summary.accepted)
+        .min_by(|x, y| {
+            let k =
+                |f: &rational_core::SplitFit| f.summary.condition_number.unwrap_or(f64::INFINITY);
+            k(x).total_cmp(&k(y))
+        })
+        .map(|f| Found {
+            n_p: f.summary.n_p,
+            n_q: f.summary.n_q,
+            min_q_ratio: f.verification.map_or(0.0, |v| v.min_q_ratio),
+            function: f.function.expect("accepted splits carry a function"),
+        }))
+}
+
+/// The smallest feasible budget at or above `start`, by doubling then
+/// bisection.
+fn search_budget(
+    a: &Assembled,
+    engine: &FitSettings,
+    start: usize,
+    max: usize,
+    tried: &mut Vec<usize>,
+) -> Result<Option<Found>, CdfError> {
+    let max = max.min(a.data.len());
+    let mut bad = start.max(2) - 1;
+    let mut n = start.max(2);
+    let mut found = loop {
+        if n > max {
+            return Ok(None);
+        }
+        tried.push(n);
+        if let Some(f) = probe(a, engine, n)? {
+            break (n, f);
+        }
+        bad = n;
+        if n == max {
+            return Ok(None);
+        }
+        n = (2 * n).min(max);
+    };
+    while found.0 - bad > 1 {
+        let mid = bad + (found.0 - bad) / 2;
+        tried.push(mid);
+        match probe(a, engine, mid)? {
+            Some(f) => found = (mid, f),
+            None => bad = mid,
+        }
+    }
+    Ok(Some(found.1))
+}
+
+fn fit_component(
+    table: &CdfTable,
+    c: Component,
+    s: &CdfFitSettings,
+) -> Result<(InverseCdf, ComponentReport), CdfError> {
+    let start = Instant::now();
+    let max_view = table.settings().max_view();
+    // Poles are checked on the check grid of reachable points below; the
+    // engine's box grid would also cover (s, w) pairs no elevations produce.
+    let engine = s
+        .engine
+        .clone()
+        .with_domain(domain(c, max_view)?)
+        .with_pole_control(PoleControl::None);
+    let max_coeffs = s.max_coeffs[match c {
+        Component::Theta => 0,
+        Component::Phi => 1,
+    }];
+    let checks = check_points(table, c, s);
+    let mut delta = s.cdf_tolerance;
+    let mut tried = Vec::new();
+    let mut last_failure = None;
+    'widen: for widening in 0..=s.widenings {
+        if widening > 0 {
+            delta = (2.0 * delta).min(0.49);
+        }
+        let mut natural = sample_points(table, c, s);
+        let mut zero_weight = Vec::new();
+        let mut budget = 2;
+        for round in 0..=s.refinement_rounds {
+            let a = assemble(table, c, &natural, &zero_weight, delta, s.min_half_width)?;
+            let Some(found) = search_budget(&a, &engine, budget, max_coeffs, &mut tried)? else {
+                continue 'widen;
+            };
+            budget = found.n_p + found.n_q;
+            let inv = InverseCdf::new(c, found.function.clone())?;
+            let (min_derivative, at, failing) = check_monotone(&inv, &checks);
+            if failing.is_empty() {
+                let report = component_report(
+                    c,
+                    &inv,
+                    &a,
+                    &found,
+                    delta,
+                    min_derivative,
+                    checks.len() / c.dim(),
+                    round,
+                    tried,
+                    start,
+                );
+                return Ok((inv, report));
+            }
+            if round == s.refinement_rounds {
+                // Still not monotone: wider intervals give the solver room.
+                last_failure = Some(CdfError::NotMonotone {
+                    function: c.name(),
+                    min_derivative,
+                    at,
+                    rounds: round,
+                });
+                continue 'widen;
+            }
+            for x in failing.chunks(c.dim()) {
+                if c.known_part(x).weight == 0.0 {
+                    zero_weight.extend_from_slice(x);
+                } else {
+                    natural.extend_from_slice(x);
+                }
+            }
+        }
+    }
+    Err(last_failure.unwrap_or(CdfError::Infeasible {
+        function: c.name(),
+        max_coeffs,
+        cdf_tolerance: delta,
+        doublings: s.widenings,
+    }))
+}
+
+/// Smallest derivative on the grid, where, and the failing points (at most
+/// the 1024 worst): a negative derivative, or a denominator that is not
+/// positive (a pole between samples).
+fn check_monotone(inv: &InverseCdf, grid: &[f64]) -> (f64, Vec<f64>, Vec<f64>) {
+    let d = inv.component.dim();
+    let mut derivs: Vec<(f64, usize)> = grid
+        .par_chunks(d)
+        .enumerate()
+        .map(|(i, x)| {
+            let (_, q) = inv.rational.eval_parts(&inv.component.fit_coordinates(x));
+            let dr = inv.eval_with_derivative(x).1;
+            (
+                if q > 0.0 && dr.is_finite() {
+                    dr
+                } else {
+                    f64::NEG_INFINITY
+                },
+                i,
+            )
+        })
+        .collect();
+    derivs.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let (min, at) = derivs[0];
+    let failing = derivs
+        .iter()
+        .take_while(|(v, _)| *v < 0.0)
+        .take(1024)
+        .flat_map(|&(_, i)| grid[i * d..(i + 1) * d].iter().copied())
+        .collect();
+    (min, grid[at * d..(at + 1) * d].to_vec(), failing)
+}
+
+#[allow(clippy::too_many_arguments)]
+fn component_report(
+    c: Component,
+    inv: &InverseCdf,
+    a: &Assembled,
+    fit: &Found,
+    delta: f64,
+    min_derivative: f64,
+    check_points: usize,
+    rounds: usize,
+    budgets_tried: Vec<usize>,
+    start: Instant,
+) -> ComponentReport {
+    let errors: Vec<f64> = a
+        .natural
+        .par_chunks(c.dim())
+        .zip(a.values.par_iter())
+        .map(|(x, v)| (inv.eval(x) - v).abs())
+        .collect();
+    ComponentReport {
+        component: c,
+        n_p: fit.n_p,
+        n_q: fit.n_q,
+        samples: errors.len(),
+        monotone_points: a.monotone.len(),
+        cdf_tolerance: delta,
+        max_error_rad: errors.iter().cloned().fold(0.0, f64::max),
+        mean_error_rad: errors.iter().sum::<f64>() / errors.len() as f64,
+        min_derivative,
+        check_points,
+        refinement_rounds: rounds,
+        budgets_tried,
+        min_q_ratio: fit.min_q_ratio,
+        seconds: start.elapsed().as_secs_f64(),
+    }
+}

@@ -1,0 +1,244 @@
+//! Light-direction samplers behind one interface: cosine-weighted (the naive
+//! baseline), tabulated (binary search in CDF tables with a stored pdf) and
+//! rational (the fitted inverse CDFs with the pdf-free weight).
+//!
+//! Directions are unit vectors with z along the normal. Isotropy: a sampler
+//! works in the azimuth relative to the view, `phi_l - phi_v`, draws it on
+//! `[0, pi]` and mirrors it to `[-pi, 0]` with probability 1/2 (the first
+//! uniform number is split in two to choose the side).
+
+use crate::model::RationalCdf;
+use crate::table::invert_cdf;
+use crate::CdfTable;
+use brdf::{from_spherical, to_spherical, Brdf, Vec3};
+use std::f64::consts::{FRAC_PI_2, PI};
+
+/// A sampled light direction and the inverse of its density.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DirectionSample {
+    /// The light direction (unit, upper hemisphere).
+    pub wi: Vec3,
+    /// `1 / pdf(wi)` per steradian: the Monte-Carlo weight of the sample.
+    pub inv_pdf: f64,
+}
+
+/// A strategy for sampling light directions given a view direction.
+pub trait Sampler: Send + Sync {
+    /// Short name for reports.
+    fn name(&self) -> String;
+
+    /// A direction for the view `wo` and two uniform numbers in `[0, 1)`;
+    /// `None` when the sample carries no weight.
+    fn sample(&self, wo: Vec3, u: [f64; 2]) -> Option<DirectionSample>;
+
+    /// Density per steradian of the directions [`Sampler::sample`] returns.
+    /// For the rational sampler it is implied by the map (found by inverting
+    /// it), not stored.
+    fn pdf(&self, wo: Vec3, wi: Vec3) -> f64;
+
+    /// Bytes the sampler stores per material (f32).
+    fn byte_size(&self) -> usize;
+}
+
+/// The estimator's contribution of one sample:
+/// `rho(v, l) cos(theta_l) / pdf(l)` per channel (zero when no sample).
+pub fn weighted_sample(
+    material: &dyn Brdf,
+    sampler: &dyn Sampler,
+    wo: Vec3,
+    u: [f64; 2],
+) -> Option<(Vec3, [f64; 3])> {
+    let s = sampler.sample(wo, u)?;
+    let f = material.eval(s.wi, wo);
+    let w = s.wi[2].max(0.0) * s.inv_pdf;
+    Some((s.wi, [f[0] * w, f[1] * w, f[2] * w]))
+}
+
+/// `(theta_v, phi_v)` of the view.
+fn view_angles(wo: Vec3) -> (f64, f64) {
+    let (t, p) = to_spherical(wo);
+    (t, if wo[0] == 0.0 && wo[1] == 0.0 { 0.0 } else { p })
+}
+
+/// `|phi_l - phi_v|` wrapped to `[0, pi]`.
+fn relative_azimuth(wo: Vec3, wi: Vec3) -> f64 {
+    let (_, pv) = view_angles(wo);
+    let (_, pl) = to_spherical(wi);
+    let mut d = (pl - pv).rem_euclid(2.0 * PI);
+    if d > PI {
+        d = 2.0 * PI - d;
+    }
+    d
+}
+
+/// Splits `u` into a side (`+1` or `-1`) and a fresh uniform number.
+fn mirror(u: f64) -> (f64, f64) {
+    if u < 0.5 {
+        (1.0, 2.0 * u)
+    } else {
+        (-1.0, (2.0 * u - 1.0).min(1.0))
+    }
+}
+
+fn direction(phi_v: f64, theta: f64, side: f64, phi_rel: f64) -> Vec3 {
+    from_spherical(theta, phi_v + side * phi_rel)
+}
+
+/// Cosine-weighted sampling: `pdf = cos(theta_l) / pi`, blind to the BRDF.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct CosineSampler;
+
+impl Sampler for CosineSampler {
+    fn name(&self) -> String {
+        "cosine".into()
+    }
+
+    fn sample(&self, _wo: Vec3, u: [f64; 2]) -> Option<DirectionSample> {
+        let theta = u[0].sqrt().asin();
+        let c = theta.cos();
+        (c > 0.0).then(|| DirectionSample {
+            wi: from_spherical(theta, 2.0 * PI * u[1]),
+            inv_pdf: PI / c,
+        })
+    }
+
+    fn pdf(&self, _wo: Vec3, wi: Vec3) -> f64 {
+        wi[2].max(0.0) / PI
+    }
+
+    fn byte_size(&self) -> usize {
+        0
+    }
+}
+
+/// Tabulated sampling: the nearest view slice of a [`CdfTable`], a cell by
+/// binary search in its CDFs, uniform inside the cell; the stored cell
+/// probability gives the pdf.
+#[derive(Debug, Clone)]
+pub struct TabulatedSampler {
+    table: CdfTable,
+}
+
+impl TabulatedSampler {
+    /// A sampler over `table`.
+    pub fn new(table: CdfTable) -> Self {
+        Self { table }
+    }
+
+    /// The table.
+    pub fn table(&self) -> &CdfTable {
+        &self.table
+    }
+}
+
+impl Sampler for TabulatedSampler {
+    fn name(&self) -> String {
+        "tabulated".into()
+    }
+
+    fn sample(&self, wo: Vec3, u: [f64; 2]) -> Option<DirectionSample> {
+        let (tv, pv) = view_angles(wo);
+        let i = self.table.nearest_view(tv);
+        let s = self.table.slice_ref(i);
+        let (nt, np) = self.table.cells();
+        let (dt, dp) = self.table.cell_size();
+        let (j, fj) = invert_cdf(&s.marginal, u[0]);
+        let (side, tau) = mirror(u[1]);
+        let (k, fk) = invert_cdf(&s.conditional[j * (np + 1)..(j + 1) * (np + 1)], tau);
+        let theta = ((j as f64 + fj) * dt).min(FRAC_PI_2);
+        let phi = (k as f64 + fk) * dp;
+        let mass = s.mass[j * np + k];
+        let sin = theta.sin();
+        debug_assert!(j < nt);
+        (mass > 0.0 && sin > 0.0).then(|| DirectionSample {
+            wi: direction(pv, theta, side, phi),
+            inv_pdf: 2.0 * sin * dt * dp / mass,
+        })
+    }
+
+    fn pdf(&self, wo: Vec3, wi: Vec3) -> f64 {
+        if wi[2] <= 0.0 {
+            return 0.0;
+        }
+        let (tv, _) = view_angles(wo);
+        let s = self.table.slice_ref(self.table.nearest_view(tv));
+        let (nt, np) = self.table.cells();
+        let (dt, dp) = self.table.cell_size();
+        let (theta, _) = to_spherical(wi);
+        let phi = relative_azimuth(wo, wi);
+        let j = ((theta / dt) as usize).min(nt - 1);
+        let k = ((phi / dp) as usize).min(np - 1);
+        let sin = theta.sin();
+        if sin <= 0.0 {
+            return 0.0;
+        }
+        s.mass[j * np + k] / (2.0 * sin * dt * dp)
+    }
+
+    fn byte_size(&self) -> usize {
+        self.table.byte_size_f32()
+    }
+}
+
+/// Sampling by the fitted inverse CDFs; the weight is the map's Jacobian
+/// `alpha = d theta/d mu * d phi/d tau * sin(theta_l) * 2`, so no pdf is
+/// stored. The estimate is unbiased whenever the map is a bijection (monotone
+/// with the built-in boundaries), however accurate the fit.
+#[derive(Debug, Clone)]
+pub struct RationalSampler {
+    cdf: RationalCdf,
+}
+
+impl RationalSampler {
+    /// A sampler over fitted inverse CDFs.
+    pub fn new(cdf: RationalCdf) -> Self {
+        Self { cdf }
+    }
+
+    /// The inverse CDFs.
+    pub fn cdf(&self) -> &RationalCdf {
+        &self.cdf
+    }
+}
+
+impl Sampler for RationalSampler {
+    fn name(&self) -> String {
+        "rational".into()
+    }
+
+    fn sample(&self, wo: Vec3, u: [f64; 2]) -> Option<DirectionSample> {
+        let (tv, pv) = view_angles(wo);
+        let (side, tau) = mirror(u[1]);
+        let (theta, phi, alpha) = self.cdf.map(tv, u[0], tau);
+        (alpha > 0.0 && alpha.is_finite()).then(|| DirectionSample {
+            wi: direction(pv, theta, side, phi),
+            inv_pdf: 2.0 * alpha,
+        })
+    }
+
+    fn pdf(&self, wo: Vec3, wi: Vec3) -> f64 {
+        if wi[2] <= 0.0 {
+            return 0.0;
+        }
+        let (tv, _) = view_angles(wo);
+        let tv = tv.clamp(0.0, self.cdf.max_view);
+        let (theta, _) = to_spherical(wi);
+        let phi = relative_azimuth(wo, wi);
+        let Some(mu) = self.cdf.theta.invert(&[tv, 0.0], theta) else {
+            return 0.0;
+        };
+        let Some(tau) = self.cdf.phi.invert(&[tv, theta, 0.0], phi) else {
+            return 0.0;
+        };
+        let (_, _, alpha) = self.cdf.map(tv, mu, tau);
+        if alpha > 0.0 {
+            1.0 / (2.0 * alpha)
+        } else {
+            f64::INFINITY
+        }
+    }
+
+    fn byte_size(&self) -> usize {
+        self.cdf.byte_size_f32()
+    }
+}

@@ -1,0 +1,233 @@
+//! `ratfit cdf` and `ratfit sample-stats`: rational inverse CDFs of a material
+//! and the variance of the three samplers.
+
+use crate::brdf_cmd::{load_fitted, load_material, read_json};
+use anyhow::{bail, Context, Result};
+use brdf::Brdf;
+use cdf::{
+    compare_samplers, fit_table, CdfFitReport, CdfFitSettings, CdfTable, CosineSampler,
+    RationalCdf, RationalSampler, Sampler, SamplerRow, TableSettings, TabulatedSampler,
+};
+use clap::Args;
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+
+/// Options of `ratfit cdf`.
+#[derive(Args)]
+pub struct CdfArgs {
+    /// The material: a measured file, or a fit written by `ratfit fit`.
+    material: PathBuf,
+    /// Its format: merl, rgl or fit.
+    #[arg(long)]
+    format: String,
+    /// View elevations tabulated (evenly on [0, --max-view]).
+    #[arg(long, default_value_t = 16)]
+    views: usize,
+    /// Largest view elevation fitted (degrees); beyond it the last is used
+    /// (still unbiased, with more variance).
+    #[arg(long, default_value_t = 80.0)]
+    max_view: f64,
+    /// Table cells as NT,NP (theta_l on [0, 90] degrees, phi_l on [0, 180]).
+    #[arg(long, default_value = "64,64")]
+    cells: String,
+    /// Half-width of the fitting intervals in CDF space (doubled when no
+    /// budget is feasible).
+    #[arg(long, default_value_t = 0.05)]
+    tol: f64,
+    /// Largest coefficient budgets as THETA,PHI.
+    #[arg(long, default_value = "64,120")]
+    max_coeffs: String,
+    /// Output (JSON: the inverse CDFs, the table settings and the report).
+    #[arg(short = 'o', long = "output")]
+    output: PathBuf,
+}
+
+/// Options of `ratfit sample-stats`.
+#[derive(Args)]
+pub struct StatsArgs {
+    /// Inverse CDFs written by `ratfit cdf`.
+    cdf: PathBuf,
+    /// The material the estimates integrate: a fit from `ratfit fit`, or a
+    /// measured file with --format.
+    material: PathBuf,
+    /// Format of a measured material (merl or rgl).
+    #[arg(long)]
+    format: Option<String>,
+    /// Samples per estimate.
+    #[arg(long, default_value_t = 100_000)]
+    samples: usize,
+    /// View elevations in degrees, comma-separated.
+    #[arg(long, default_value = "0,30,60,80")]
+    views: String,
+    /// Seed of the uniform numbers.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Also write the rows as CSV.
+    #[arg(long)]
+    csv: Option<PathBuf>,
+}
+
+/// What `ratfit cdf` writes.
+#[derive(Serialize, Deserialize)]
+pub struct CdfFile {
+    /// The fitted inverse CDFs.
+    pub cdf: RationalCdf,
+    /// The table they were fitted to (rebuilt for the tabulated sampler).
+    pub table: TableSettings,
+    /// The fit report.
+    #[serde(skip_deserializing)]
+    pub report: Option<CdfFitReport>,
+}
+
+fn pair(s: &str, what: &str) -> Result<(usize, usize)> {
+    s.split_once(',')
+        .and_then(|(a, b)| Some((a.trim().parse().ok()?, b.trim().parse().ok()?)))
+        .with_context(|| format!("{what} `{s}` is not A,B"))
+}
+
+/// A material from a measured file or a `ratfit fit` output.
+pub fn material_from(path: &Path, format: Option<&str>) -> Result<Box<dyn Brdf>> {
+    match format {
+        Some("fit") | None => {
+            let value = read_json(path)?;
+            match load_fitted(&value) {
+                Some(f) => Ok(Box::new(f?)),
+                None => bail!(
+                    "{} is not a BRDF fit; give --format merl or rgl for a measured file",
+                    path.display()
+                ),
+            }
+        }
+        Some(f) => load_material(path, f),
+    }
+}
+
+pub fn run_cdf(args: CdfArgs) -> Result<()> {
+    let material = material_from(&args.material, Some(&args.format))?;
+    let (nt, np) = pair(&args.cells, "--cells")?;
+    let (mt, mp) = pair(&args.max_coeffs, "--max-coeffs")?;
+    let table_settings = TableSettings::default()
+        .with_views(args.views)?
+        .with_cells(nt, np)?
+        .with_max_view(args.max_view.to_radians())?;
+    let start = std::time::Instant::now();
+    let table = CdfTable::new(material.as_ref(), table_settings)?;
+    eprintln!(
+        "tabulated {} views x {nt} x {np} cells in {:.2} s",
+        args.views,
+        start.elapsed().as_secs_f64()
+    );
+    let settings = CdfFitSettings::default()
+        .with_tolerance(args.tol, 1e-3)?
+        .with_max_coeffs(mt, mp)?;
+    let (cdf, report) = fit_table(&table, &settings)?;
+    println!("{report}");
+    let file = CdfFile {
+        cdf,
+        table: table_settings,
+        report: Some(report),
+    };
+    std::fs::write(&args.output, serde_json::to_string_pretty(&file)?)
+        .with_context(|| format!("cannot write {}", args.output.display()))?;
+    eprintln!("wrote {}", args.output.display());
+    Ok(())
+}
+
+pub fn read_cdf(path: &Path) -> Result<CdfFile> {
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let file: CdfFile = serde_json::from_str(&text)
+        .with_context(|| format!("{} is not written by `ratfit cdf`", path.display()))?;
+    // Re-validate the pieces.
+    RationalCdf::from_json(&serde_json::to_string(&file.cdf)?)?;
+    Ok(file)
+}
+
+/// Rows of `sample-stats` as text.
+pub fn format_rows(rows: &[SamplerRow]) -> String {
+    let mut s = format!(
+        "{:>5} {:<10} {:>10} {:>8} {:>11} {:>11} {:>11} {:>10} {:>10}\n",
+        "view", "sampler", "bytes", "ns/smp", "var R", "var G", "var B", "mean G", "quad G"
+    );
+    for r in rows {
+        let e = &r.estimate;
+        s.push_str(&format!(
+            "{:>5.0} {:<10} {:>10} {:>8.0} {:>11.3e} {:>11.3e} {:>11.3e} {:>10.5} {:>10.5}\n",
+            r.view_deg,
+            r.sampler,
+            r.bytes,
+            e.ns_per_sample,
+            e.variance[0],
+            e.variance[1],
+            e.variance[2],
+            e.mean[1],
+            r.reference.value[1]
+        ));
+    }
+    s
+}
+
+pub fn run_stats(args: StatsArgs) -> Result<()> {
+    let file = read_cdf(&args.cdf)?;
+    let material = material_from(&args.material, args.format.as_deref())?;
+    let views: Vec<f64> = args
+        .views
+        .split(',')
+        .map(|v| v.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .with_context(|| format!("--views `{}` is not a list of degrees", args.views))?;
+    if let Some(v) = views.iter().find(|v| !(0.0..90.0).contains(*v)) {
+        bail!("view elevation {v} is outside [0, 90) degrees");
+    }
+    let table = CdfTable::new(material.as_ref(), file.table)?;
+    let tabulated = TabulatedSampler::new(table);
+    let rational = RationalSampler::new(file.cdf);
+    let samplers: [&dyn Sampler; 3] = [&CosineSampler, &tabulated, &rational];
+    let rows = compare_samplers(
+        material.as_ref(),
+        &samplers,
+        &views,
+        args.samples,
+        args.seed,
+    );
+    println!(
+        "{}: {} samples per estimate; variance of one sample of rho cos / pdf per channel",
+        material.name(),
+        args.samples
+    );
+    print!("{}", format_rows(&rows));
+    if let Some(path) = args.csv {
+        std::fs::write(&path, csv_rows(&material.name(), &rows))
+            .with_context(|| format!("cannot write {}", path.display()))?;
+        eprintln!("wrote {}", path.display());
+    }
+    Ok(())
+}
+
+/// CSV of comparison rows (one header line).
+pub fn csv_rows(material: &str, rows: &[SamplerRow]) -> String {
+    let mut s = String::from(
+        "material,view_deg,sampler,bytes,samples,ns_per_sample,mean_r,mean_g,mean_b,var_r,var_g,var_b,quad_r,quad_g,quad_b\n",
+    );
+    for r in rows {
+        let e = &r.estimate;
+        s.push_str(&format!(
+            "{material},{},{},{},{},{:.1},{:e},{:e},{:e},{:e},{:e},{:e},{:e},{:e},{:e}\n",
+            r.view_deg,
+            r.sampler,
+            r.bytes,
+            e.samples,
+            e.ns_per_sample,
+            e.mean[0],
+            e.mean[1],
+            e.mean[2],
+            e.variance[0],
+            e.variance[1],
+            e.variance[2],
+            r.reference.value[0],
+            r.reference.value[1],
+            r.reference.value[2]
+        ));
+    }
+    s
+}
