@@ -35,16 +35,20 @@ mod error;
 mod fit;
 mod model;
 mod monotone;
+mod report;
 mod sampler;
+mod settings;
 pub mod stats;
 mod table;
 
 pub use error::CdfError;
-pub use fit::{fit_table, CdfFitReport, CdfFitSettings, ComponentReport};
+pub use fit::fit_table;
 pub use model::{Component, InverseCdf, KnownPart, RationalCdf};
+pub use report::{CdfFitReport, ComponentReport};
 pub use sampler::{
     weighted_sample, CosineSampler, DirectionSample, RationalSampler, Sampler, TabulatedSampler,
 };
+pub use settings::CdfFitSettings;
 pub use stats::{
     albedo_quadrature, chi_square, compare_samplers, estimate_albedo, AlbedoEstimate, ChiSquare,
     Quadrature, SamplerRow,
