@@ -37,7 +37,7 @@ pub struct ComponentReport {
     pub seconds: f64,
 }
 
-/// Report of [`fit_table`].
+/// Report of [`fit_table`](crate::fit_table).
 #[derive(Debug, Clone, Serialize)]
 pub struct CdfFitReport {
     /// Material.

@@ -4,7 +4,7 @@ use crate::error::invalid;
 use crate::CdfError;
 use rational_core::FitSettings;
 
-/// Settings of [`fit_table`].
+/// Settings of [`fit_table`](crate::fit_table).
 #[derive(Debug, Clone)]
 pub struct CdfFitSettings {
     pub(crate) cdf_tolerance: f64,
