@@ -151,8 +151,8 @@ impl InverseCdf {
         let c = self.component;
         let k = c.known_part(natural);
         let x = c.fit_coordinates(natural);
-        let g = self.rational.eval(&x);
-        let dg = self.rational.gradient(&x)[c.sampled()];
+        let (g, grad) = self.rational.value_and_gradient(&x);
+        let dg = grad[c.sampled()];
         let value = if k.weight == 0.0 {
             k.base
         } else {

@@ -38,34 +38,31 @@ impl Rng {
 
 /// Gauss-Legendre nodes and weights on `[-1, 1]`.
 pub fn gauss_legendre(n: usize) -> (Vec<f64>, Vec<f64>) {
+    // `(P_n(z), P_n'(z))` by the three-term recurrence.
+    let legendre = |z: f64| {
+        let (mut p0, mut p1) = (1.0, z);
+        for k in 1..n {
+            let p2 = ((2 * k + 1) as f64 * z * p1 - k as f64 * p0) / (k + 1) as f64;
+            p0 = p1;
+            p1 = p2;
+        }
+        let (pn, pn1) = if n == 1 { (z, 1.0) } else { (p1, p0) };
+        (pn, n as f64 * (z * pn - pn1) / (z * z - 1.0))
+    };
     let (mut x, mut w) = (vec![0.0; n], vec![0.0; n]);
     for i in 0..n {
         let mut z = (PI * (i as f64 + 0.75) / (n as f64 + 0.5)).cos();
         for _ in 0..100 {
-            let (mut p0, mut p1) = (1.0, z);
-            for k in 1..n {
-                let p2 = ((2 * k + 1) as f64 * z * p1 - k as f64 * p0) / (k + 1) as f64;
-                p0 = p1;
-                p1 = p2;
-            }
-            let (pn, pn1) = if n == 1 { (z, 1.0) } else { (p1, p0) };
-            let dp = n as f64 * (z * pn - pn1) / (z * z - 1.0);
+            let (pn, dp) = legendre(z);
             let dz = pn / dp;
             z -= dz;
             if dz.abs() < 1e-15 {
-                let (mut q0, mut q1) = (1.0, z);
-                for k in 1..n {
-                    let q2 = ((2 * k + 1) as f64 * z * q1 - k as f64 * q0) / (k + 1) as f64;
-                    q0 = q1;
-                    q1 = q2;
-                }
-                let (pn, pn1) = if n == 1 { (z, 1.0) } else { (q1, q0) };
-                let dp = n as f64 * (z * pn - pn1) / (z * z - 1.0);
-                x[i] = z;
-                w[i] = 2.0 / ((1.0 - z * z) * dp * dp);
                 break;
             }
         }
+        let dp = legendre(z).1;
+        x[i] = z;
+        w[i] = 2.0 / ((1.0 - z * z) * dp * dp);
     }
     (x, w)
 }

@@ -114,6 +114,11 @@ impl RationalFunction {
 
     /// Gradient of `r` at `x`: `(p' q - p q') / q^2`.
     pub fn gradient(&self, x: &[f64]) -> Vec<f64> {
+        self.value_and_gradient(x).1
+    }
+
+    /// `r(x)` and its gradient from one evaluation of the basis.
+    pub fn value_and_gradient(&self, x: &[f64]) -> (f64, Vec<f64>) {
         let d = self.dim();
         let n = self.basis.len();
         let mut phi = vec![0.0; n];
@@ -122,13 +127,14 @@ impl RationalFunction {
         let dotp = |a: &[f64], c: &[f64]| a.iter().zip(c).map(|(u, v)| u * v).sum::<f64>();
         let p = dotp(&phi, &self.numerator);
         let q = dotp(&phi, &self.denominator);
-        (0..d)
+        let grad = (0..d)
             .map(|k| {
                 let dp = dotp(&dphi[k], &self.numerator);
                 let dq = dotp(&dphi[k], &self.denominator);
                 (dp * q - p * dq) / (q * q)
             })
-            .collect()
+            .collect();
+        (p / q, grad)
     }
 
     /// Bytes of the coefficients stored as f32 (the representation a shader
