@@ -4,7 +4,9 @@
 //! then the value), numerator first. Inputs are mapped from `[MIN, MAX]` to
 //! `[-1, 1]` per coordinate, as in ALTA's `rational_function_chebychev`.
 
-use crate::BrdfError;
+use crate::{BrdfError, Coordinates, FittedBrdf};
+use rational_core::BasisFamily;
+use std::fmt::Write as _;
 use std::path::Path;
 
 /// One output channel of an ALTA rational function.
@@ -77,6 +79,100 @@ impl AltaChannel {
 }
 
 impl AltaRational {
+    /// The ALTA form of a fit: the same tensor Chebyshev coefficients on the
+    /// same domain boxes, in ALTA's Rusinkiewicz parametrisation
+    /// (`RUSIN_TH_TD` or `RUSIN_TH_TD_PD`, radians).
+    ///
+    /// ALTA evaluates `p / q` as is: the clamps of [`FittedBrdf::eval`]
+    /// (`theta_d` to the grazing cut, negative values to zero) are not part
+    /// of the file.
+    ///
+    /// # Errors
+    /// Fits in coordinates ALTA has no parametrisation for (the sqrt warp of
+    /// `theta_h`, cosines: refit with radians) or in a basis other than
+    /// Chebyshev.
+    pub fn from_fitted(fit: &FittedBrdf) -> Result<Self, BrdfError> {
+        if fit.reduction.coordinates != Coordinates::Radians {
+            return Err(BrdfError::Invalid {
+                name: "ALTA export",
+                reason: format!(
+                    "ALTA has no parametrisation for {:?} coordinates; fit with radians (`--coords radians`)",
+                    fit.reduction.coordinates
+                ),
+            });
+        }
+        let dim_in = fit.reduction.dims();
+        let mut channels = Vec::with_capacity(fit.channels.len());
+        for f in &fit.channels {
+            let basis = f.basis();
+            if basis.family() != BasisFamily::Chebyshev {
+                return Err(BrdfError::Invalid {
+                    name: "ALTA export",
+                    reason: format!(
+                        "ALTA's rational functions are in the Chebyshev basis, this fit is in {}",
+                        basis.family()
+                    ),
+                });
+            }
+            let terms = |c: &[f64]| -> Vec<(Vec<u32>, f64)> {
+                c.iter()
+                    .enumerate()
+                    .map(|(j, &v)| {
+                        (
+                            basis.multi_index(j).iter().map(|&e| u32::from(e)).collect(),
+                            v,
+                        )
+                    })
+                    .collect()
+            };
+            channels.push(AltaChannel {
+                min: basis.domain().lower.clone(),
+                max: basis.domain().upper.clone(),
+                numerator: terms(f.numerator()),
+                denominator: terms(f.denominator()),
+            });
+        }
+        Ok(Self {
+            dim_in,
+            param_in: if dim_in == 3 {
+                "RUSIN_TH_TD_PD".into()
+            } else {
+                "RUSIN_TH_TD".into()
+            },
+            channels,
+        })
+    }
+
+    /// The file text (`#MIN`/`#MAX` repeated before each channel, as each
+    /// channel has its own domain box), coefficients to full precision.
+    pub fn to_text(&self, command: &str) -> String {
+        let mut s = String::new();
+        let _ = writeln!(s, "#ALTA FUNC HEADER");
+        let _ = writeln!(s, "#CMD {command}");
+        let _ = writeln!(s, "#DIM {} {}", self.dim_in, self.channels.len());
+        let _ = writeln!(s, "#PARAM_IN  {}", self.param_in);
+        let _ = writeln!(s, "#PARAM_OUT RGB_COLOR");
+        let _ = writeln!(s, "#ALTA HEADER END\n");
+        let _ = writeln!(s, "#FUNC rational_function");
+        let join = |v: &[f64]| {
+            v.iter()
+                .map(|x| format!("{x:.17e}"))
+                .collect::<Vec<_>>()
+                .join(" ")
+        };
+        for c in &self.channels {
+            let _ = writeln!(s, "#MIN {}", join(&c.min));
+            let _ = writeln!(s, "#MAX {}", join(&c.max));
+            let _ = writeln!(s, "#NP {}", c.numerator.len());
+            let _ = writeln!(s, "#NQ {}", c.denominator.len());
+            for (idx, v) in c.numerator.iter().chain(&c.denominator) {
+                let i: Vec<String> = idx.iter().map(u32::to_string).collect();
+                let _ = writeln!(s, "{}\t{v:.17e}", i.join("\t"));
+            }
+        }
+        s
+    }
+
     /// Reads an ALTA rational function file.
     ///
     /// # Errors

@@ -1,7 +1,10 @@
 //! `ratfit`: fit data with rational functions inside error bounds.
 
+mod bench;
 mod brdf_cmd;
+mod canvas;
 mod cdf_cmd;
+mod chart;
 mod csv;
 mod demo;
 mod npy;
@@ -59,11 +62,12 @@ enum Command {
         #[arg(long)]
         directions: Option<PathBuf>,
     },
-    /// Export a BRDF fit: shader source (wgsl, glsl) or the compact f32 binary.
+    /// Export a BRDF fit: shader source (wgsl, glsl), an ALTA rational
+    /// function file (alta; fits in radians) or the compact f32 binary.
     Export {
         /// A fit written by `ratfit fit`.
         fit: PathBuf,
-        /// wgsl, glsl or binary.
+        /// wgsl, glsl, alta or binary.
         #[arg(long)]
         to: String,
         /// Output file (default: standard output for shader source).
@@ -118,6 +122,9 @@ enum Command {
     /// Variance and cost of the cosine, tabulated and rational samplers:
     /// albedo estimates at equal sample count against quadrature.
     SampleStats(cdf_cmd::StatsArgs),
+    /// Benchmarks: `ratfit bench fit [--quick] [--out DIR]` reports error
+    /// against run time for every compiled backend.
+    Bench(bench::BenchArgs),
     /// List the solver backends compiled into this build.
     Backends,
 }
@@ -287,6 +294,7 @@ fn main() -> Result<()> {
         Command::Fit(args) => brdf_cmd::run_fit(args)?,
         Command::Cdf(args) => cdf_cmd::run_cdf(args)?,
         Command::SampleStats(args) => cdf_cmd::run_stats(args)?,
+        Command::Bench(args) => bench::run_bench(args)?,
         Command::Eval {
             fit: path,
             points,
@@ -332,7 +340,10 @@ fn main() -> Result<()> {
                     "glsl" => brdf::shader::shader_source(&compact, brdf::shader::Language::Glsl)
                         .into_bytes(),
                     "binary" => compact.to_bytes(),
-                    other => bail!("unknown export `{other}` (wgsl, glsl, binary)"),
+                    "alta" => brdf::AltaRational::from_fitted(&fitted)?
+                        .to_text(&format!("ratfit export {} --to alta", path.display()))
+                        .into_bytes(),
+                    other => bail!("unknown export `{other}` (wgsl, glsl, alta, binary)"),
                 };
             match output {
                 Some(o) => {

@@ -253,6 +253,16 @@ fn fit_eval_export_and_plot_a_merl_file() {
         .output()
         .unwrap();
     assert!(String::from_utf8_lossy(&out.stdout).contains("fn ratfit_brdf("));
+    // ALTA has no sqrt-warped parametrisation: the default fit is refused
+    // with the way out named.
+    let out = ratfit()
+        .arg("export")
+        .arg(&fit)
+        .args(["--to", "alta"])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--coords radians"));
     let png = dir.join("slices.png");
     let out = ratfit()
         .arg("plot")
@@ -353,4 +363,84 @@ fn cdf_fit_and_sampler_statistics_of_a_fitted_material() {
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("is not written by `ratfit cdf`"), "{err}");
+}
+
+#[test]
+fn bench_fit_writes_checked_results_and_refuses_bad_instance_files() {
+    let dir = scratch("bench");
+    let instances = dir.join("instances.toml");
+    std::fs::write(
+        &instances,
+        "[settings]\nrepetitions = 2\n\n[[instance]]\nname = \"runge\"\nrel_tol = [1e-2]\nsplits = [[3, 3], [6, 6]]\naaa = true\ndata = { kind = \"function\", function = \"runge\", samples = [300, 900] }\n",
+    )
+    .unwrap();
+    let out_dir = dir.join("out");
+    let out = ratfit()
+        .args(["bench", "fit", "--backends", "native", "--instances"])
+        .arg(&instances)
+        .arg("--out")
+        .arg(&out_dir)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let csv = std::fs::read_to_string(out_dir.join("results.csv")).unwrap();
+    // Two sizes x two splits on native, plus AAA at m = 3 and 6 per size.
+    assert_eq!(csv.lines().count(), 1 + 4 + 4, "{csv}");
+    assert!(csv.lines().skip(1).all(|l| l.contains(",true,")), "{csv}");
+    let summary = std::fs::read_to_string(out_dir.join("summary.md")).unwrap();
+    assert!(summary.contains("| runge |"), "{summary}");
+    let png = std::fs::read(out_dir.join("error_vs_time.png")).unwrap();
+    assert!(png.starts_with(b"\x89PNG"));
+    let check = ratfit()
+        .args(["bench", "check"])
+        .arg(&out_dir)
+        .output()
+        .unwrap();
+    // The run had only native; a build with other backends expects them too.
+    let only_native = rational_core::Backend::available().len() == 1;
+    assert_eq!(
+        check.status.success(),
+        only_native,
+        "{}",
+        String::from_utf8_lossy(&check.stderr)
+    );
+
+    // A tampered result (violated point marked verified) is caught.
+    let tampered: String = csv
+        .lines()
+        .enumerate()
+        .map(|(i, l)| {
+            if i == 1 {
+                let mut f: Vec<String> = l.split(',').map(str::to_string).collect();
+                f[11] = "0.5".into();
+                f.join(",")
+            } else {
+                l.to_string()
+            }
+        })
+        .collect::<Vec<_>>()
+        .join("\n");
+    std::fs::write(out_dir.join("results.csv"), tampered + "\n").unwrap();
+    let check = ratfit()
+        .args(["bench", "check", "--backends", "native"])
+        .arg(&out_dir)
+        .output()
+        .unwrap();
+    assert!(!check.status.success());
+    assert!(String::from_utf8_lossy(&check.stderr).contains("violation"));
+
+    std::fs::write(&instances, "[[instance]]\nname = \"x\"\nrel_tol = [1e-2]\nsplits = [[3, 3]]\ndata = { kind = \"function\", function = \"sinc\", samples = [10] }\n").unwrap();
+    let out = ratfit()
+        .args(["bench", "fit", "--instances"])
+        .arg(&instances)
+        .arg("--out")
+        .arg(&out_dir)
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("unknown function `sinc`"));
 }

@@ -24,7 +24,8 @@ pub struct SplitFit {
     pub summary: SplitSummary,
     /// The fitted function when accepted.
     pub function: Option<RationalFunction>,
-    /// Our own check of the function (when a point was produced).
+    /// Our own check of the point, whenever the backend claimed one
+    /// (accepted or not).
     pub verification: Option<Verification>,
     /// Pole figures of the accepted function.
     pub poles: PoleReport,
@@ -101,6 +102,22 @@ impl<'a> Prepared<'a> {
         build_problem_scaled(&self.design, data, n_p, n_q, rows, self.scale)
     }
 
+    /// The rational function of a solution vector `(a, b)` (numerator
+    /// rescaled from the value-scaled problem), unit-normalised.
+    fn candidate(
+        &self,
+        split_basis: &Basis,
+        x: &[f64],
+        n_p: usize,
+    ) -> Result<RationalFunction, FitError> {
+        Ok(RationalFunction::new(
+            split_basis.clone(),
+            x[..n_p].iter().map(|a| a * self.scale).collect(),
+            x[n_p..].to_vec(),
+        )?
+        .normalised())
+    }
+
     fn solve(
         &self,
         data: &IntervalData,
@@ -149,23 +166,25 @@ impl<'a> Prepared<'a> {
             let usable =
                 claimed && sol.residuals.depth > 0.0 && sol.x.iter().all(|v| v.is_finite());
             if !usable {
+                // A point the backend claims but that is not strictly inside
+                // is still measured by our verifier, so callers see why.
+                let measured = claimed
+                    .then(|| self.candidate(&split_basis, &sol.x, n_p).ok())
+                    .flatten()
+                    .map(|f| verify(&f, data, &rows));
                 summary.note = if claimed {
                     format!(
-                        "backend reported solved; verifier found violation {:.2e}",
-                        sol.residuals.max_violation
+                        "backend reported {}; verifier found violation {:.2e}",
+                        sol.status,
+                        measured.map_or(sol.residuals.max_violation, |v| v.max_violation)
                     )
                 } else {
                     sol.status.to_string()
                 };
-                break (None, None);
+                break (None, measured);
             }
             warm = sol.active_set.clone();
-            let f = RationalFunction::new(
-                split_basis.clone(),
-                sol.x[..n_p].iter().map(|a| a * self.scale).collect(),
-                sol.x[n_p..].to_vec(),
-            )?
-            .normalised();
+            let f = self.candidate(&split_basis, &sol.x, n_p)?;
             let ver = verify(&f, data, &rows);
             if !ver.satisfied {
                 summary.note = format!(

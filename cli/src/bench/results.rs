@@ -1,0 +1,311 @@
+//! `results.csv`: writing, reading back, and the sanity check run on it.
+
+use super::run::Row;
+use anyhow::{bail, Context, Result};
+use std::path::Path;
+
+/// Column names of `results.csv`.
+pub const COLUMNS: [&str; 22] = [
+    "instance",
+    "mode",
+    "backend",
+    "rel_tol",
+    "size",
+    "samples",
+    "n_p",
+    "n_q",
+    "status",
+    "verified",
+    "depth",
+    "max_violation",
+    "max_rel_error",
+    "mean_rel_error",
+    "median_s",
+    "min_s",
+    "max_s",
+    "reps",
+    "iterations",
+    "threads",
+    "commit",
+    "note",
+];
+
+fn quote(s: &str) -> String {
+    if s.contains([',', '"', '\n']) {
+        format!("\"{}\"", s.replace('"', "\"\"").replace('\n', " "))
+    } else {
+        s.to_string()
+    }
+}
+
+fn opt(v: Option<f64>) -> String {
+    v.map_or_else(String::new, |v| format!("{v:e}"))
+}
+
+/// Writes the rows with the run's thread count and commit.
+pub fn write_csv(path: &Path, rows: &[Row], threads: usize, commit: &str) -> Result<()> {
+    let mut s = COLUMNS.join(",");
+    s.push('\n');
+    for r in rows {
+        let fields = [
+            quote(&r.instance),
+            r.mode.clone(),
+            r.backend.clone(),
+            format!("{:e}", r.rel_tol),
+            quote(&r.size),
+            r.samples.to_string(),
+            r.n_p.to_string(),
+            r.n_q.to_string(),
+            quote(&r.status),
+            r.verified.to_string(),
+            opt(r.depth),
+            opt(r.max_violation),
+            opt(r.max_rel_error),
+            opt(r.mean_rel_error),
+            opt(r.median_s),
+            opt(r.min_s),
+            opt(r.max_s),
+            r.reps.to_string(),
+            r.iterations.map_or_else(String::new, |i| i.to_string()),
+            threads.to_string(),
+            quote(commit),
+            quote(&r.note),
+        ];
+        s.push_str(&fields.join(","));
+        s.push('\n');
+    }
+    std::fs::write(path, s).with_context(|| format!("cannot write {}", path.display()))
+}
+
+/// Splits one CSV line, honouring double quotes.
+fn split_line(line: &str) -> Vec<String> {
+    let mut out = Vec::new();
+    let mut cur = String::new();
+    let mut quoted = false;
+    let mut chars = line.chars().peekable();
+    while let Some(c) = chars.next() {
+        match (c, quoted) {
+            ('"', true) if chars.peek() == Some(&'"') => {
+                cur.push('"');
+                chars.next();
+            }
+            ('"', _) => quoted = !quoted,
+            (',', false) => out.push(std::mem::take(&mut cur)),
+            _ => cur.push(c),
+        }
+    }
+    out.push(cur);
+    out
+}
+
+/// Reads `results.csv` back.
+///
+/// # Errors
+/// Missing file, wrong header, or a malformed row (named by line).
+pub fn read_csv(path: &Path) -> Result<Vec<Row>> {
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let mut lines = text.lines();
+    let header = lines.next().unwrap_or_default();
+    if split_line(header) != COLUMNS {
+        bail!("{}: the header is not that of results.csv", path.display());
+    }
+    let mut rows = Vec::new();
+    for (k, line) in lines.enumerate() {
+        let at = || format!("{} line {}", path.display(), k + 2);
+        let f = split_line(line);
+        if f.len() != COLUMNS.len() {
+            bail!("{}: {} fields, expected {}", at(), f.len(), COLUMNS.len());
+        }
+        let num = |i: usize| -> Result<Option<f64>> {
+            if f[i].is_empty() {
+                Ok(None)
+            } else {
+                Ok(Some(f[i].parse::<f64>().with_context(|| {
+                    format!("{}: {} `{}` is not a number", at(), COLUMNS[i], f[i])
+                })?))
+            }
+        };
+        let int = |i: usize| -> Result<usize> {
+            f[i].parse::<usize>()
+                .with_context(|| format!("{}: {} `{}` is not a count", at(), COLUMNS[i], f[i]))
+        };
+        rows.push(Row {
+            instance: f[0].clone(),
+            mode: f[1].clone(),
+            backend: f[2].clone(),
+            rel_tol: num(3)?.unwrap_or(f64::NAN),
+            size: f[4].clone(),
+            samples: int(5)?,
+            n_p: int(6)?,
+            n_q: int(7)?,
+            status: f[8].clone(),
+            verified: f[9] == "true",
+            depth: num(10)?,
+            max_violation: num(11)?,
+            max_rel_error: num(12)?,
+            mean_rel_error: num(13)?,
+            median_s: num(14)?,
+            min_s: num(15)?,
+            max_s: num(16)?,
+            reps: int(17)?,
+            iterations: if f[18].is_empty() {
+                None
+            } else {
+                Some(int(18)?)
+            },
+            note: f[21].clone(),
+        });
+    }
+    Ok(rows)
+}
+
+/// Relative slack of a verified point's error over its tolerance: the
+/// verifier accepts rounding of order `1e-13` relative (64 eps per term).
+const ROUNDING: f64 = 1e-9;
+
+/// Problems with a finished run's outputs in `dir`: missing files, backends
+/// that never ran, and any point whose claim and measurement disagree.
+pub fn check(dir: &Path, expected_backends: &[&str]) -> Result<Vec<String>> {
+    let mut problems = Vec::new();
+    for f in [
+        "results.csv",
+        "error_vs_time.png",
+        "error_vs_time.svg",
+        "time_vs_samples.svg",
+        "summary.md",
+    ] {
+        let p = dir.join(f);
+        match std::fs::metadata(&p) {
+            Ok(m) if m.len() > 0 => {}
+            _ => problems.push(format!("{} is missing or empty", p.display())),
+        }
+    }
+    let rows = read_csv(&dir.join("results.csv"))?;
+    for b in expected_backends {
+        if !rows.iter().any(|r| r.backend == *b && r.median_s.is_some()) {
+            problems.push(format!("backend {b} has no timed row"));
+        }
+    }
+    if !rows.iter().any(|r| r.verified && r.mode == "split") {
+        problems.push("no verified split at all".into());
+    }
+    for (k, r) in rows.iter().enumerate() {
+        let line = k + 2;
+        let claimed = matches!(r.status.as_str(), "solved" | "inaccurate");
+        let viol = r.max_violation.unwrap_or(0.0);
+        if r.verified && (viol > ROUNDING || viol.is_nan()) {
+            problems.push(format!(
+                "line {line}: {} {} marked verified with violation {viol:e}",
+                r.instance, r.backend
+            ));
+        }
+        if r.verified && r.mode != "aaa" {
+            if let Some(e) = r.max_rel_error {
+                // Relative intervals: inside means within rel_tol of the value.
+                if e > r.rel_tol * (1.0 + ROUNDING) + 1e-12 || e.is_nan() {
+                    problems.push(format!(
+                        "line {line}: {} {} verified, yet its relative error {e:e} exceeds the tolerance {:e}",
+                        r.instance, r.backend, r.rel_tol
+                    ));
+                }
+            } else {
+                problems.push(format!("line {line}: verified without error figures"));
+            }
+        }
+        if claimed && !r.verified && r.mode == "split" {
+            // A rejected claim must carry the verifier's own measurement.
+            if r.max_violation.is_none() && !r.note.contains("verif") {
+                problems.push(format!(
+                    "line {line}: {} {} reported {} but was rejected without a measured violation",
+                    r.instance, r.backend, r.status
+                ));
+            }
+        }
+        if claimed && viol > ROUNDING && r.verified {
+            problems.push(format!(
+                "line {line}: {} {} reported {} on a violated point and the verifier did not flag it",
+                r.instance, r.backend, r.status
+            ));
+        }
+        if r.median_s.is_some_and(|t| !(t >= 0.0 && t.is_finite())) {
+            problems.push(format!("line {line}: bad time"));
+        }
+    }
+    Ok(problems)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(verified: bool, viol: f64, err: f64) -> Row {
+        Row {
+            instance: "x, with comma".into(),
+            mode: "split".into(),
+            backend: "native".into(),
+            rel_tol: 0.01,
+            size: "20 samples".into(),
+            samples: 20,
+            n_p: 2,
+            n_q: 2,
+            status: "solved".into(),
+            verified,
+            depth: Some(1e-3),
+            max_violation: Some(viol),
+            max_rel_error: Some(err),
+            mean_rel_error: Some(err / 2.0),
+            median_s: Some(0.5),
+            min_s: Some(0.4),
+            max_s: Some(0.6),
+            reps: 3,
+            iterations: Some(7),
+            note: "say \"hi\"".into(),
+        }
+    }
+
+    fn dir_with(rows: &[Row], name: &str) -> std::path::PathBuf {
+        let dir =
+            std::env::temp_dir().join(format!("ratfit-bench-check-{name}-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        write_csv(&dir.join("results.csv"), rows, 2, "abc").unwrap();
+        for f in [
+            "error_vs_time.png",
+            "error_vs_time.svg",
+            "time_vs_samples.svg",
+            "summary.md",
+        ] {
+            std::fs::write(dir.join(f), "x").unwrap();
+        }
+        dir
+    }
+
+    #[test]
+    fn csv_round_trips() {
+        let dir = dir_with(&[row(true, 0.0, 0.005)], "roundtrip");
+        let back = read_csv(&dir.join("results.csv")).unwrap();
+        assert_eq!(back.len(), 1);
+        assert_eq!(back[0].instance, "x, with comma");
+        assert_eq!(back[0].note, "say \"hi\"");
+        assert_eq!(back[0].iterations, Some(7));
+        assert!(check(&dir, &["native"]).unwrap().is_empty());
+    }
+
+    #[test]
+    fn check_flags_a_violated_point_marked_verified() {
+        let dir = dir_with(&[row(true, 0.0, 0.005), row(true, 1e-3, 0.005)], "violated");
+        let p = check(&dir, &["native"]).unwrap();
+        assert!(p.iter().any(|p| p.contains("violation")), "{p:?}");
+    }
+
+    #[test]
+    fn check_flags_errors_beyond_the_tolerance_and_missing_backends() {
+        let dir = dir_with(&[row(true, 0.0, 0.05)], "beyond");
+        let p = check(&dir, &["native", "clarabel"]).unwrap();
+        assert!(p.iter().any(|p| p.contains("exceeds")), "{p:?}");
+        assert!(p.iter().any(|p| p.contains("clarabel")), "{p:?}");
+        std::fs::remove_file(dir.join("summary.md")).unwrap();
+        let p = check(&dir, &["native"]).unwrap();
+        assert!(p.iter().any(|p| p.contains("summary.md")), "{p:?}");
+    }
+}
