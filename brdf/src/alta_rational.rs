@@ -83,9 +83,9 @@ impl AltaRational {
     /// same domain boxes, in ALTA's Rusinkiewicz parametrisation
     /// (`RUSIN_TH_TD` or `RUSIN_TH_TD_PD`, radians).
     ///
-    /// ALTA evaluates `p / q` as is: the clamps of [`FittedBrdf::eval`]
-    /// (`theta_d` to the grazing cut, negative values to zero) are not part
-    /// of the file.
+    /// ALTA evaluates `p / q` as is: our clamps ([`FittedBrdf::coordinates`]
+    /// clamps `theta_d` to the grazing cut, [`FittedBrdf::eval_coords`]
+    /// negative values to zero) are not part of the file.
     ///
     /// # Errors
     /// Fits in coordinates ALTA has no parametrisation for (the sqrt warp of

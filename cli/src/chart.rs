@@ -207,12 +207,7 @@ impl Figure {
                 "<text x=\"{cx:.1}\" y=\"{cy:.1}\" text-anchor=\"middle\" transform=\"rotate(-90 {cx:.1} {cy:.1})\">{}</text>",
                 escape(&self.y_label)
             );
-            let front: Vec<(f64, f64)> = p
-                .front
-                .iter()
-                .filter(|(x, y)| usable(*x, *y))
-                .map(|&(x, y)| (sc.x(x), sc.y(y)))
-                .collect();
+            let front = sc.front_pixels(p);
             if front.len() > 1 {
                 let path: Vec<String> = front
                     .iter()
@@ -309,12 +304,7 @@ impl Figure {
                 2,
                 black,
             );
-            let front: Vec<(f64, f64)> = p
-                .front
-                .iter()
-                .filter(|(x, y)| usable(*x, *y))
-                .map(|&(x, y)| (sc.x(x), sc.y(y)))
-                .collect();
+            let front = sc.front_pixels(p);
             for w in front.windows(2) {
                 c.line(w[0], w[1], black);
             }
@@ -340,6 +330,15 @@ struct Scales {
 }
 
 impl Scales {
+    /// The panel's front in pixels, left out points that log axes cannot show.
+    fn front_pixels(&self, p: &Panel) -> Vec<(f64, f64)> {
+        p.front
+            .iter()
+            .filter(|(x, y)| usable(*x, *y))
+            .map(|&(x, y)| (self.x(x), self.y(y)))
+            .collect()
+    }
+
     fn x(&self, v: f64) -> f64 {
         let t = (v.log10() - self.xd.0 as f64) / (self.xd.1 - self.xd.0) as f64;
         self.left + t * (self.right - self.left)

@@ -186,10 +186,7 @@ fn run_instance(
                         ..base.clone()
                     };
                     if let Some(note) = over_sample_limit(backend, data.len(), file) {
-                        row.status = "skipped".into();
-                        row.note = note;
-                        print_row(&row);
-                        rows.push(row);
+                        push_skipped(row, note, rows);
                         continue;
                     }
                     let key = (backend, split, tol.to_bits());
@@ -200,11 +197,9 @@ fn run_instance(
                         // about the next.
                         let predicted = t0 * (data.len() as f64 / s0 as f64).powi(2);
                         if predicted > budget {
-                            row.status = "skipped".into();
-                            row.note =
+                            let note =
                                 format!("predicted {predicted:.0} s per run (budget {budget} s)");
-                            print_row(&row);
-                            rows.push(row);
+                            push_skipped(row, note, rows);
                             continue;
                         }
                     }
@@ -230,10 +225,7 @@ fn run_instance(
                             ..base.clone()
                         };
                         if let Some(note) = over_sample_limit(backend, data.len(), file) {
-                            row.status = "skipped".into();
-                            row.note = note;
-                            print_row(&row);
-                            rows.push(row);
+                            push_skipped(row, note, rows);
                             continue;
                         }
                         let per_split = split_medians.get(&backend).copied();
@@ -270,6 +262,14 @@ fn run_instance(
         }
     }
     Ok(())
+}
+
+/// Records a case that was not run, and why.
+fn push_skipped(mut row: Row, note: String, rows: &mut Vec<Row>) {
+    row.status = "skipped".into();
+    row.note = note;
+    print_row(&row);
+    rows.push(row);
 }
 
 /// Why a comparison backend is not run on `samples` samples, if it is not.
