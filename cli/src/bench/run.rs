@@ -58,6 +58,14 @@ pub struct Row {
     pub note: String,
 }
 
+impl Row {
+    /// Marks the case as failed with `e` as the note.
+    fn fail(&mut self, e: impl std::fmt::Display) {
+        self.status = "error".into();
+        self.note = e.to_string();
+    }
+}
+
 /// How a run is carried out.
 pub struct RunOptions<'a> {
     /// `--quick`.
@@ -285,11 +293,7 @@ fn split_row(row: &mut Row, data: &IntervalData, backend: Backend, budget: f64, 
         .map(|s| s.with_pole_control(PoleControl::None));
     let settings = match settings {
         Ok(s) => s,
-        Err(e) => {
-            row.status = "error".into();
-            row.note = e.to_string();
-            return;
-        }
+        Err(e) => return row.fail(e),
     };
     let t = timed(budget, max_reps, || {
         fit_split(data, row.n_p, row.n_q, &settings)
@@ -310,10 +314,7 @@ fn split_row(row: &mut Row, data: &IntervalData, backend: Backend, budget: f64, 
                 row.mean_rel_error = Some(e.mean_relative);
             }
         }
-        Err(e) => {
-            row.status = "error".into();
-            row.note = e.to_string();
-        }
+        Err(e) => row.fail(e),
     }
 }
 
@@ -335,11 +336,7 @@ fn sweep_row(
         });
     let settings = match settings {
         Ok(s) => s,
-        Err(e) => {
-            row.status = "error".into();
-            row.note = e.to_string();
-            return;
-        }
+        Err(e) => return row.fail(e),
     };
     let t = timed(budget, max_reps, || fit(data, &settings));
     set_times(row, &t.times, t.reps);
@@ -361,10 +358,7 @@ fn sweep_row(
         Err(FitError::NoFeasibleFit { .. }) => {
             row.status = format!("0/{} feasible", budget_coeffs - 1);
         }
-        Err(e) => {
-            row.status = "error".into();
-            row.note = e.to_string();
-        }
+        Err(e) => row.fail(e),
     }
 }
 
@@ -401,13 +395,18 @@ fn aaa_rows(
     // run's step times to the median of the whole-run times.
     let total = steps.last().map_or(0.0, |s| s.1).max(f64::MIN_POSITIVE);
     let whole = median(&t.times);
+    let intervals = inst
+        .rel_tol
+        .iter()
+        .map(|&tol| Ok((tol, sampled.intervals(tol)?)))
+        .collect::<Result<Vec<_>>>()?;
     for &m in &ms {
         let Some((b, at)) = steps.get(m - 1).or(steps.last()) else {
             continue;
         };
         let fitted: Vec<f64> = x.iter().map(|&xi| b.eval(xi)).collect();
-        for &tol in &inst.rel_tol {
-            let data = sampled.intervals(tol)?;
+        for (tol, data) in &intervals {
+            let tol = *tol;
             let mut row = Row {
                 instance: inst.name.clone(),
                 mode: "aaa".into(),
