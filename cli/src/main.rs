@@ -11,6 +11,7 @@ mod npy;
 mod plot;
 mod png;
 mod progress;
+mod render_cmd;
 mod sphere;
 
 use anyhow::{bail, Context, Result};
@@ -125,6 +126,12 @@ enum Command {
     /// Benchmarks: `ratfit bench fit [--quick] [--out DIR]` reports error
     /// against run time for every compiled backend.
     Bench(bench::BenchArgs),
+    /// Render a scene (TOML) to PNG and/or OpenEXR, preparing only the
+    /// materials, fits and inverse CDFs the scene needs.
+    Render(render_cmd::RenderArgs),
+    /// Compare two linear images: mean and max CIELAB differences (CIE76,
+    /// CIEDE2000), RMSE, and a false-colour difference image.
+    Compare(render_cmd::CompareArgs),
     /// List the solver backends compiled into this build.
     Backends,
 }
@@ -295,6 +302,8 @@ fn main() -> Result<()> {
         Command::Cdf(args) => cdf_cmd::run_cdf(args)?,
         Command::SampleStats(args) => cdf_cmd::run_stats(args)?,
         Command::Bench(args) => bench::run_bench(args)?,
+        Command::Render(args) => render_cmd::run_render(args)?,
+        Command::Compare(args) => render_cmd::run_compare(args)?,
         Command::Eval {
             fit: path,
             points,

@@ -5,6 +5,8 @@
 
 mod aaa;
 mod instances;
+mod paper;
+mod render;
 mod results;
 mod run;
 mod summary;
@@ -29,6 +31,12 @@ enum BenchWhat {
     /// tolerances and sizes; write results.csv, the error-against-time
     /// figure and summary.md, then check them.
     Fit(FitBenchArgs),
+    /// Compare the BRDF samplers of a scene at equal samples and equal
+    /// time: error against a high-sample reference against render time.
+    Render(render::RenderBenchArgs),
+    /// The paper's rendering experiments on the example scenes: sphere data
+    /// against fit, sampler variance, global illumination, frames per second.
+    Paper(paper::PaperArgs),
     /// Check a finished run's outputs: files present, every backend timed,
     /// no point claimed solved yet violated without the verifier saying so.
     Check {
@@ -66,6 +74,8 @@ struct FitBenchArgs {
 pub fn run_bench(args: BenchArgs) -> Result<()> {
     match args.what {
         BenchWhat::Fit(a) => run_fit(a),
+        BenchWhat::Render(a) => render::run(a),
+        BenchWhat::Paper(a) => paper::run(a),
         BenchWhat::Check { dir, backends } => {
             let names: Vec<&str> = backends
                 .unwrap_or_else(Backend::available)

@@ -1,0 +1,253 @@
+//! `ratfit render` and `ratfit compare`.
+
+use anyhow::{bail, Context, Result};
+use clap::Args;
+use render_cpu::{
+    compare, false_colour, prepare_file, render, Image, RenderOptions, RenderOutput, SamplerKind,
+    Scene,
+};
+use std::io::{IsTerminal, Write};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// Scene overrides shared by `render` and `bench render`.
+#[derive(Args, Clone)]
+pub struct OverrideArgs {
+    /// Image size as WIDTHxHEIGHT.
+    #[arg(long)]
+    pub resolution: Option<String>,
+    /// Samples per pixel.
+    #[arg(long)]
+    pub spp: Option<usize>,
+    /// Seed of the random streams.
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// BRDF sampling: cosine, tabulated or rational.
+    #[arg(long)]
+    pub sampler: Option<SamplerKind>,
+    /// Multiple importance sampling: true or false.
+    #[arg(long)]
+    pub mis: Option<bool>,
+    /// Objects using material A use material B instead (A=B; repeatable).
+    #[arg(long = "swap")]
+    pub swaps: Vec<String>,
+    /// Cache folder for fits and inverse CDFs (default: $RATFIT_CACHE,
+    /// $XDG_CACHE_HOME/ratfit or ~/.cache/ratfit).
+    #[arg(long)]
+    pub cache: Option<PathBuf>,
+    /// Neither read nor write cached fits.
+    #[arg(long)]
+    pub no_cache: bool,
+}
+
+impl OverrideArgs {
+    /// The library's options.
+    pub fn options(&self) -> Result<RenderOptions> {
+        let resolution = match &self.resolution {
+            None => None,
+            Some(r) => {
+                let (w, h) = r
+                    .split_once('x')
+                    .with_context(|| format!("--resolution `{r}` is not WIDTHxHEIGHT"))?;
+                Some((
+                    w.trim()
+                        .parse()
+                        .with_context(|| format!("width in `{r}`"))?,
+                    h.trim()
+                        .parse()
+                        .with_context(|| format!("height in `{r}`"))?,
+                ))
+            }
+        };
+        let swaps = self
+            .swaps
+            .iter()
+            .map(|s| {
+                s.split_once('=')
+                    .map(|(a, b)| (a.to_string(), b.to_string()))
+                    .with_context(|| format!("--swap `{s}` is not A=B"))
+            })
+            .collect::<Result<_>>()?;
+        Ok(RenderOptions {
+            resolution,
+            spp: self.spp,
+            seed: self.seed,
+            sampler: self.sampler,
+            mis: self.mis,
+            swaps,
+            cache_dir: self.cache.clone(),
+            no_cache: self.no_cache,
+        })
+    }
+}
+
+/// Options of `ratfit render`.
+#[derive(Args)]
+pub struct RenderArgs {
+    /// The scene file (TOML).
+    scene: PathBuf,
+    /// Output images: .png (tone-mapped) and/or .exr (linear); repeatable.
+    #[arg(short = 'o', long = "output", required = true)]
+    outputs: Vec<PathBuf>,
+    #[command(flatten)]
+    overrides: OverrideArgs,
+    /// Print the figures as JSON on standard output.
+    #[arg(long)]
+    json: bool,
+}
+
+/// A progress bar over image rows on standard error (terminals only).
+pub fn row_bar() -> impl Fn(usize, usize) + Sync {
+    let tty = std::io::stderr().is_terminal();
+    let start = Instant::now();
+    move |done: usize, total: usize| {
+        if !tty || (done % 8 != 0 && done != total) {
+            return;
+        }
+        let width = 30;
+        let filled = width * done / total.max(1);
+        eprint!(
+            "\r  render [{}{}] {:>5}/{:<5} rows {:>7.1} s ",
+            "#".repeat(filled),
+            " ".repeat(width - filled),
+            done,
+            total,
+            start.elapsed().as_secs_f64()
+        );
+        std::io::stderr().flush().ok();
+        if done == total {
+            eprint!("\r{}\r", " ".repeat(72));
+        }
+    }
+}
+
+/// Prepares a scene file, printing the log to standard error.
+pub fn prepare_logged(scene: &Path, options: &RenderOptions) -> Result<(Scene, f64)> {
+    let start = Instant::now();
+    let (scene, log) = prepare_file(scene, options)?;
+    let t = start.elapsed().as_secs_f64();
+    eprintln!("prepared in {t:.2} s:\n{log}");
+    Ok((scene, t))
+}
+
+/// Figures of a render for people.
+pub fn describe(scene: &Scene, out: &RenderOutput) -> String {
+    let s = &out.stats;
+    let i = &scene.integrator;
+    let (brdf_bytes, sampler_bytes) = scene.material_bytes();
+    let mut text = format!(
+        "{}x{} pixels, {} spp, {:?} integrator, {} sampler{}\n",
+        scene.camera.width(),
+        scene.camera.height(),
+        s.spp,
+        i.kind,
+        i.sampler.name(),
+        if i.mis { " + MIS" } else { "" }
+    );
+    text += &format!(
+        "render: {:.3} s ({:.3e} samples/s, {:.2} frames/s)\n",
+        s.seconds,
+        (s.pixels * s.spp) as f64 / s.seconds,
+        1.0 / s.seconds
+    );
+    text += &format!(
+        "variance of one sample (mean over pixels): r {:.4e}  g {:.4e}  b {:.4e}\n",
+        s.sample_variance[0], s.sample_variance[1], s.sample_variance[2]
+    );
+    text += &format!(
+        "materials: {brdf_bytes} bytes of reflectance, {sampler_bytes} bytes of samplers\n"
+    );
+    for m in &scene.materials {
+        text += &format!(
+            "  {}: {} ({} bytes), sampler {} ({} bytes)\n",
+            m.name,
+            m.description,
+            m.brdf_bytes,
+            m.sampler.name(),
+            m.sampler_bytes
+        );
+    }
+    text
+}
+
+/// Runs `ratfit render`.
+pub fn run_render(args: RenderArgs) -> Result<()> {
+    let options = args.overrides.options()?;
+    for o in &args.outputs {
+        let ext = o.extension().and_then(|e| e.to_str()).unwrap_or("");
+        if !matches!(ext, "png" | "exr") {
+            bail!("{}: the output must end in .png or .exr", o.display());
+        }
+    }
+    let (scene, prepare_s) = prepare_logged(&args.scene, &options)?;
+    let out = render(&scene, &row_bar());
+    let start = Instant::now();
+    for o in &args.outputs {
+        out.image.write(o, scene.exposure)?;
+        eprintln!("wrote {}", o.display());
+    }
+    let write_s = start.elapsed().as_secs_f64();
+    if args.json {
+        let v = serde_json::json!({
+            "prepare_seconds": prepare_s,
+            "render": out.stats,
+            "write_seconds": write_s,
+            "material_bytes": scene.material_bytes(),
+        });
+        println!("{}", serde_json::to_string_pretty(&v)?);
+    } else {
+        print!("{}", describe(&scene, &out));
+        println!(
+            "phases: prepare {prepare_s:.2} s, render {:.2} s, write {write_s:.2} s",
+            out.stats.seconds
+        );
+    }
+    Ok(())
+}
+
+/// Options of `ratfit compare`.
+#[derive(Args)]
+pub struct CompareArgs {
+    /// First image (.exr, linear).
+    a: PathBuf,
+    /// Second image (.exr, linear).
+    b: PathBuf,
+    /// False-colour map of the per-pixel CIEDE2000 difference (PNG).
+    #[arg(short = 'o', long = "output")]
+    output: Option<PathBuf>,
+    /// Multiplier applied to both images before the Lab conversion (white
+    /// is linear 1 after it).
+    #[arg(long, default_value_t = 1.0)]
+    exposure: f64,
+    /// CIEDE2000 difference drawn white in the map.
+    #[arg(long, default_value_t = 10.0)]
+    full_scale: f64,
+    /// Print the figures as JSON.
+    #[arg(long)]
+    json: bool,
+}
+
+/// Runs `ratfit compare`.
+pub fn run_compare(args: CompareArgs) -> Result<()> {
+    let a = Image::read_exr(&args.a)?;
+    let b = Image::read_exr(&args.b)?;
+    let (c, map) = compare(&a, &b, args.exposure)?;
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&c)?);
+    } else {
+        println!("{} vs {}", args.a.display(), args.b.display());
+        println!("{c}");
+    }
+    if let Some(o) = &args.output {
+        if !(args.full_scale.is_finite() && args.full_scale > 0.0) {
+            bail!("--full-scale {} must be positive", args.full_scale);
+        }
+        render_cpu::write_png(o, a.width, a.height, &false_colour(&map, args.full_scale))?;
+        eprintln!(
+            "wrote {} (CIEDE2000, black 0 to white {})",
+            o.display(),
+            args.full_scale
+        );
+    }
+    Ok(())
+}

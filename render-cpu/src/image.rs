@@ -1,0 +1,272 @@
+//! Linear RGB images: OpenEXR input and output (linear, f32), PNG output
+//! (exposure, then the sRGB transfer curve, clamped to 8 bits).
+
+use crate::error::RenderError;
+use std::path::Path;
+
+/// A linear RGB image, row-major, top row first.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Image {
+    /// Width in pixels.
+    pub width: usize,
+    /// Height in pixels.
+    pub height: usize,
+    /// `width * height` linear RGB values.
+    pub pixels: Vec<[f32; 3]>,
+}
+
+fn image_error(path: &Path, reason: impl Into<String>) -> RenderError {
+    RenderError::Image {
+        path: path.display().to_string(),
+        reason: reason.into(),
+    }
+}
+
+/// The sRGB transfer curve of a linear value, clamped to `[0, 1]`.
+pub fn srgb_encode(v: f64) -> f64 {
+    let v = v.clamp(0.0, 1.0);
+    if v <= 0.003_130_8 {
+        12.92 * v
+    } else {
+        1.055 * v.powf(1.0 / 2.4) - 0.055
+    }
+}
+
+impl Image {
+    /// An image from its pixels.
+    ///
+    /// # Panics
+    /// If `pixels.len() != width * height` (a programming error).
+    pub fn new(width: usize, height: usize, pixels: Vec<[f32; 3]>) -> Self {
+        assert_eq!(pixels.len(), width * height, "pixel count");
+        Self {
+            width,
+            height,
+            pixels,
+        }
+    }
+
+    /// The pixel at column `x`, row `y`.
+    pub fn at(&self, x: usize, y: usize) -> [f32; 3] {
+        self.pixels[y * self.width + x]
+    }
+
+    /// Mean of each channel.
+    pub fn mean(&self) -> [f64; 3] {
+        let mut s = [0.0; 3];
+        for p in &self.pixels {
+            for c in 0..3 {
+                s[c] += f64::from(p[c]);
+            }
+        }
+        s.map(|v| v / self.pixels.len().max(1) as f64)
+    }
+
+    /// 8-bit sRGB bytes after multiplying by `exposure`.
+    pub fn to_srgb8(&self, exposure: f64) -> Vec<u8> {
+        self.pixels
+            .iter()
+            .flat_map(|p| p.map(|v| (srgb_encode(f64::from(v) * exposure) * 255.0 + 0.5) as u8))
+            .collect()
+    }
+
+    /// Writes by extension: `.exr` (linear f32) or `.png` (exposure, sRGB).
+    ///
+    /// # Errors
+    /// Another extension, or the file cannot be written.
+    pub fn write(&self, path: &Path, exposure: f64) -> Result<(), RenderError> {
+        match extension(path).as_str() {
+            "exr" => self.write_exr(path),
+            "png" => write_png(path, self.width, self.height, &self.to_srgb8(exposure)),
+            other => Err(image_error(
+                path,
+                format!("unknown extension `{other}`: use .png or .exr"),
+            )),
+        }
+    }
+
+    /// Writes a linear OpenEXR file.
+    ///
+    /// # Errors
+    /// The file cannot be written.
+    pub fn write_exr(&self, path: &Path) -> Result<(), RenderError> {
+        exr::prelude::write_rgb_file(path, self.width, self.height, |x, y| {
+            let p = self.at(x, y);
+            (p[0], p[1], p[2])
+        })
+        .map_err(|e| image_error(path, e.to_string()))
+    }
+
+    /// Reads the first RGB(A) layer of an OpenEXR file (alpha ignored).
+    ///
+    /// # Errors
+    /// Not a readable OpenEXR file with RGB channels, or non-finite values.
+    pub fn read_exr(path: &Path) -> Result<Self, RenderError> {
+        if extension(path) != "exr" {
+            return Err(image_error(
+                path,
+                "expected a linear OpenEXR (.exr) image; PNG files are tone-mapped and cannot be compared",
+            ));
+        }
+        let img = exr::prelude::read_first_rgba_layer_from_file(
+            path,
+            |size, _| Image::new(size.0, size.1, vec![[0.0; 3]; size.0 * size.1]),
+            |img: &mut Image, pos, (r, g, b, _a): (f32, f32, f32, f32)| {
+                let w = img.width;
+                img.pixels[pos.1 * w + pos.0] = [r, g, b];
+            },
+        )
+        .map_err(|e| image_error(path, e.to_string()))?;
+        let image = img.layer_data.channel_data.pixels;
+        if let Some(i) = image
+            .pixels
+            .iter()
+            .position(|p| p.iter().any(|v| !v.is_finite()))
+        {
+            return Err(image_error(
+                path,
+                format!(
+                    "pixel ({}, {}) is {:?}: not finite",
+                    i % image.width,
+                    i / image.width,
+                    image.pixels[i]
+                ),
+            ));
+        }
+        Ok(image)
+    }
+}
+
+fn extension(path: &Path) -> String {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .unwrap_or("")
+        .to_ascii_lowercase()
+}
+
+fn crc32(data: &[u8]) -> u32 {
+    let mut table = [0u32; 256];
+    for (n, t) in table.iter_mut().enumerate() {
+        let mut c = n as u32;
+        for _ in 0..8 {
+            c = if c & 1 != 0 {
+                0xEDB8_8320 ^ (c >> 1)
+            } else {
+                c >> 1
+            };
+        }
+        *t = c;
+    }
+    !data.iter().fold(!0u32, |c, &b| {
+        table[((c ^ b as u32) & 0xFF) as usize] ^ (c >> 8)
+    })
+}
+
+fn chunk(out: &mut Vec<u8>, kind: &[u8; 4], data: &[u8]) {
+    out.extend_from_slice(&(data.len() as u32).to_be_bytes());
+    let start = out.len();
+    out.extend_from_slice(kind);
+    out.extend_from_slice(data);
+    let crc = crc32(&out[start..]);
+    out.extend_from_slice(&crc.to_be_bytes());
+}
+
+/// Encodes 8-bit RGB (row-major, 3 bytes a pixel) as a deflate-compressed
+/// PNG.
+///
+/// # Panics
+/// If `rgb.len() != width * height * 3` (a programming error).
+pub fn encode_png(width: usize, height: usize, rgb: &[u8]) -> Vec<u8> {
+    assert_eq!(rgb.len(), width * height * 3, "byte count");
+    let mut raw = Vec::with_capacity((width * 3 + 1) * height);
+    let mut prev: Option<&[u8]> = None;
+    for row in rgb.chunks_exact(width * 3) {
+        // Filter "up" (2) helps smooth renders; the first row has none.
+        match prev {
+            Some(p) => {
+                raw.push(2);
+                raw.extend(row.iter().zip(p).map(|(a, b)| a.wrapping_sub(*b)));
+            }
+            None => {
+                raw.push(0);
+                raw.extend_from_slice(row);
+            }
+        }
+        prev = Some(row);
+    }
+    let z = miniz_oxide::deflate::compress_to_vec_zlib(&raw, 8);
+    let mut out = b"\x89PNG\r\n\x1a\n".to_vec();
+    let mut ihdr = Vec::new();
+    ihdr.extend_from_slice(&(width as u32).to_be_bytes());
+    ihdr.extend_from_slice(&(height as u32).to_be_bytes());
+    ihdr.extend_from_slice(&[8, 2, 0, 0, 0]);
+    chunk(&mut out, b"IHDR", &ihdr);
+    chunk(&mut out, b"IDAT", &z);
+    chunk(&mut out, b"IEND", &[]);
+    out
+}
+
+/// Writes 8-bit RGB as PNG.
+///
+/// # Errors
+/// The file cannot be written.
+pub fn write_png(path: &Path, width: usize, height: usize, rgb: &[u8]) -> Result<(), RenderError> {
+    std::fs::write(path, encode_png(width, height, rgb)).map_err(|e| crate::error::io(path, e))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn png_is_decodable_and_checksums_are_right() {
+        assert_eq!(crc32(b"IEND"), 0xAE42_6082);
+        let rgb: Vec<u8> = (0..4 * 3 * 3).map(|i| (i * 7) as u8).collect();
+        let png = encode_png(4, 3, &rgb);
+        assert!(png.starts_with(b"\x89PNG\r\n\x1a\n"));
+        // Inflate the IDAT stream back and undo the filters.
+        let len = u32::from_be_bytes(png[33..37].try_into().unwrap()) as usize;
+        assert_eq!(&png[37..41], b"IDAT");
+        let raw = miniz_oxide::inflate::decompress_to_vec_zlib(&png[41..41 + len]).unwrap();
+        let mut rows: Vec<Vec<u8>> = Vec::new();
+        for (i, r) in raw.chunks_exact(13).enumerate() {
+            let row: Vec<u8> = match r[0] {
+                0 => r[1..].to_vec(),
+                2 => r[1..]
+                    .iter()
+                    .zip(&rows[i - 1])
+                    .map(|(a, b)| a.wrapping_add(*b))
+                    .collect(),
+                f => panic!("filter {f}"),
+            };
+            rows.push(row);
+        }
+        assert_eq!(rows.concat(), rgb);
+    }
+
+    #[test]
+    fn exr_round_trip_is_exact_in_f32() {
+        let dir = std::env::temp_dir().join(format!("ratfit-exr-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("a.exr");
+        let img = Image::new(
+            3,
+            2,
+            (0..6).map(|i| [i as f32 * 0.37, 1e-4, 12.5]).collect(),
+        );
+        img.write(&path, 1.0).unwrap();
+        let back = Image::read_exr(&path).unwrap();
+        assert_eq!(back, img);
+        let err = Image::read_exr(&dir.join("missing.exr"))
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("missing.exr"), "{err}");
+        std::fs::write(dir.join("bad.exr"), b"not an exr").unwrap();
+        assert!(Image::read_exr(&dir.join("bad.exr")).is_err());
+        assert!(Image::read_exr(&dir.join("a.png"))
+            .unwrap_err()
+            .to_string()
+            .contains("OpenEXR"));
+        std::fs::remove_dir_all(&dir).ok();
+    }
+}
