@@ -226,11 +226,6 @@ impl EnvironmentMap {
     }
 }
 
-/// Unit normal of an area light.
-pub fn area_normal(u: Vec3, v: Vec3) -> Vec3 {
-    normalize(crate::math::cross(u, v))
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -391,6 +391,19 @@ fn bad_scenes_give_named_errors() {
             .to_string();
         assert!(err.contains(what), "{to}: {err}");
     }
+    let cycle = good.replace(
+        "kind = \"lambert\"\nalbedo = [1.0, 1.0, 1.0]",
+        "kind = \"fitted\"\nsource = \"n\"\n[materials.n]\nkind = \"fitted\"\nsource = \"m\"",
+    );
+    let err = prepared(&cycle, &options(SamplerKind::Cosine, false))
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("cycle"), "{err}");
+    let up = good.replace("fov_deg = 45.0", "fov_deg = 45.0\nup = [0.0, 0.0, -2.0]");
+    let err = prepared(&up, &options(SamplerKind::Cosine, false))
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("parallel"), "{err}");
     let swap = RenderOptions {
         swaps: vec![("m".into(), "other".into())],
         ..options(SamplerKind::Cosine, false)
@@ -399,4 +412,38 @@ fn bad_scenes_give_named_errors() {
         .unwrap_err()
         .to_string()
         .contains("other"));
+}
+
+#[test]
+fn an_exr_environment_map_lights_the_furnace() {
+    // A latitude-longitude OpenEXR image of radiance 1 everywhere except a
+    // bright patch: the furnace (no patch) renders to 1 with MIS on and the
+    // map importance-sampled; the patch brightens only pixels facing it.
+    let dir = temp_dir("envmap");
+    let (w, h) = (32, 16);
+    let flat = render_cpu::Image::new(w, h, vec![[1.0; 3]; w * h]);
+    flat.write_exr(&dir.join("flat.exr")).unwrap();
+    let text = sphere_scene(
+        "kind = \"lambert\"\nalbedo = [1.0, 1.0, 1.0]",
+        "[environment]\nkind = \"image\"\npath = \"flat.exr\"\nscale = 1.0",
+        "kind = \"direct\"\nspp = 16",
+    );
+    for sampler in SAMPLERS {
+        let desc = SceneDescription::parse(&text, "env").unwrap();
+        let (scene, log) = prepare(desc, &dir, "env", &options(sampler, true)).unwrap();
+        assert_eq!(log.find(Action::Prepared, "environment").len(), 1, "{log}");
+        let err = check_against(&scene, 5.0, |_| [1.0; 3]);
+        eprintln!("EXR furnace {sampler:?}: mean error {err:.2e}");
+    }
+    let missing = sphere_scene(
+        "kind = \"lambert\"\nalbedo = [1.0, 1.0, 1.0]",
+        "[environment]\nkind = \"image\"\npath = \"none.exr\"",
+        "kind = \"direct\"",
+    );
+    let desc = SceneDescription::parse(&missing, "env").unwrap();
+    let err = prepare(desc, &dir, "env", &options(SamplerKind::Cosine, true))
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("none.exr"), "{err}");
+    std::fs::remove_dir_all(&dir).ok();
 }

@@ -1,0 +1,342 @@
+//! Materials and their samplers: loaded, fitted or read from the cache.
+
+use super::cache::{content_hash, Cache, CACHE_VERSION};
+use super::checks::{check_positive, check_rgb, resolve_path, scene_error};
+use super::{Action, PrepareLog};
+use crate::error::{io, RenderError};
+use crate::scene::{MaterialDescription, SamplerKind};
+use crate::world::FitInDomain;
+use brdf::{
+    AshikhminShirley, BlinnPhong, Brdf, BrdfFitSettings, CookTorranceGgx, FittedBrdf, Lambert,
+    MerlBrdf, Reduction, ReductionKind, RglBrdf,
+};
+use cdf::{
+    CdfFitSettings, CdfTable, CosineSampler, RationalCdf, RationalSampler, Sampler, TableSettings,
+    TabulatedSampler,
+};
+use std::collections::BTreeMap;
+use std::path::Path;
+use std::sync::Arc;
+use std::time::Instant;
+
+pub(super) struct MaterialBuilder<'a> {
+    pub(super) materials: &'a BTreeMap<String, MaterialDescription>,
+    pub(super) base: &'a Path,
+    pub(super) origin: &'a str,
+    pub(super) cache: &'a Cache,
+    /// Content keys of materials already keyed.
+    pub(super) keys: BTreeMap<String, u64>,
+    /// Materials being keyed (a fit of a fit of ...), to refuse cycles.
+    pub(super) visiting: Vec<String>,
+}
+
+pub(super) type Built = (Arc<dyn Brdf>, usize, String, u64);
+
+impl MaterialBuilder<'_> {
+    fn material_error(&self, name: &str, e: brdf::BrdfError) -> RenderError {
+        RenderError::Material {
+            name: name.to_string(),
+            source: e,
+        }
+    }
+
+    /// The content key of a material without loading it (file bytes or
+    /// parameters).
+    fn key(&mut self, name: &str) -> Result<u64, RenderError> {
+        if let Some(k) = self.keys.get(name) {
+            return Ok(*k);
+        }
+        let desc = self
+            .materials
+            .get(name)
+            .ok_or_else(|| scene_error(self.origin, format!("no material `{name}`")))?;
+        let params = serde_json::to_string(desc).unwrap_or_default();
+        let key = match desc {
+            MaterialDescription::Measured { path, .. } | MaterialDescription::Fit { path } => {
+                let p = resolve_path(self.base, path)?;
+                let bytes = std::fs::read(&p).map_err(|e| io(&p, e))?;
+                content_hash(&[CACHE_VERSION.as_bytes(), &bytes])
+            }
+            MaterialDescription::Fitted { source, .. } => {
+                if source == name || self.visiting.iter().any(|v| v == source) {
+                    return Err(scene_error(
+                        self.origin,
+                        format!("material `{name}` fits `{source}`, which depends on `{name}` (a cycle)"),
+                    ));
+                }
+                self.visiting.push(name.to_string());
+                let s = self.key(source);
+                self.visiting.pop();
+                let s = s?;
+                content_hash(&[
+                    CACHE_VERSION.as_bytes(),
+                    &s.to_le_bytes(),
+                    params.as_bytes(),
+                ])
+            }
+            _ => content_hash(&[CACHE_VERSION.as_bytes(), params.as_bytes()]),
+        };
+        self.keys.insert(name.to_string(), key);
+        Ok(key)
+    }
+
+    pub(super) fn build(&mut self, name: &str, log: &mut PrepareLog) -> Result<Built, RenderError> {
+        let key = self.key(name)?;
+        let desc = self.materials[name].clone();
+        let is_analytic = !matches!(
+            desc,
+            MaterialDescription::Measured { .. }
+                | MaterialDescription::Fit { .. }
+                | MaterialDescription::Fitted { .. }
+        );
+        let start = Instant::now();
+        let what = format!("material {name}");
+        let rgb =
+            |v: [f64; 3], w: &str| check_rgb(self.origin, &format!("materials.{name}.{w}"), v);
+        let analytic = |b: Arc<dyn Brdf>| -> Built {
+            let d = b.name();
+            (b, 0, d, key)
+        };
+        let built: Built = match desc {
+            MaterialDescription::Lambert { albedo } => analytic(Arc::new(Lambert {
+                albedo: rgb(albedo, "albedo")?,
+            })),
+            MaterialDescription::BlinnPhong { kd, ks, exponent } => {
+                analytic(Arc::new(BlinnPhong {
+                    kd: rgb(kd, "kd")?,
+                    ks: rgb(ks, "ks")?,
+                    exponent: check_positive(self.origin, "exponent", exponent)?,
+                }))
+            }
+            MaterialDescription::Ggx { kd, f0, alpha } => analytic(Arc::new(CookTorranceGgx {
+                kd: rgb(kd, "kd")?,
+                f0: rgb(f0, "f0")?,
+                alpha: check_positive(self.origin, "alpha", alpha)?,
+            })),
+            MaterialDescription::AshikhminShirley { rd, rs, exponent } => {
+                analytic(Arc::new(AshikhminShirley {
+                    rd: rgb(rd, "rd")?,
+                    rs: rgb(rs, "rs")?,
+                    exponent: check_positive(self.origin, "exponent", exponent)?,
+                }))
+            }
+            MaterialDescription::Measured { format, path } => {
+                let p = resolve_path(self.base, &path)?;
+                let (b, bytes): (Arc<dyn Brdf>, usize) = match format.as_str() {
+                    "merl" => (
+                        Arc::new(MerlBrdf::read(&p).map_err(|e| self.material_error(name, e))?),
+                        brdf::merl::FILE_SIZE,
+                    ),
+                    "rgl" => (
+                        Arc::new(RglBrdf::read(&p).map_err(|e| self.material_error(name, e))?),
+                        std::fs::metadata(&p).map(|m| m.len() as usize).unwrap_or(0),
+                    ),
+                    other => {
+                        return Err(scene_error(
+                            self.origin,
+                            format!("materials.{name}: unknown format `{other}` (merl, rgl)"),
+                        ))
+                    }
+                };
+                let d = format!("{format} table {}", p.display());
+                log.push(
+                    Action::Prepared,
+                    &what,
+                    format!("loaded {d}, {bytes} bytes"),
+                    start.elapsed().as_secs_f64(),
+                );
+                (b, bytes, d, key)
+            }
+            MaterialDescription::Fit { path } => {
+                let p = resolve_path(self.base, &path)?;
+                let text = std::fs::read_to_string(&p).map_err(|e| io(&p, e))?;
+                let v: serde_json::Value = serde_json::from_str(&text).map_err(|e| {
+                    scene_error(self.origin, format!("{}: not JSON: {e}", p.display()))
+                })?;
+                let fitted: FittedBrdf =
+                    serde_json::from_value(v.get("brdf").cloned().unwrap_or(v)).map_err(|e| {
+                        scene_error(self.origin, format!("{}: not a BRDF fit: {e}", p.display()))
+                    })?;
+                let bytes = fitted.byte_size_f32();
+                let d = format!(
+                    "rational fit {} ({} coefficients)",
+                    p.display(),
+                    fitted.coefficients()
+                );
+                log.push(
+                    Action::Prepared,
+                    &what,
+                    format!("read {d}; {}", domain_note(&fitted)),
+                    start.elapsed().as_secs_f64(),
+                );
+                (Arc::new(FitInDomain::new(fitted)), bytes, d, key)
+            }
+            MaterialDescription::Fitted {
+                source,
+                rel_tol,
+                dims,
+                max_coeffs,
+            } => {
+                let settings_text = format!(
+                    "fitted source={source} rel_tol={rel_tol} dims={dims} max_coeffs={max_coeffs}"
+                );
+                let fitted = match self
+                    .cache
+                    .get("fit", key, &settings_text)
+                    .and_then(|v| serde_json::from_value::<FittedBrdf>(v).ok())
+                {
+                    Some(f) => {
+                        log.push(Action::Cached, &what, format!("fit of `{source}` read from the cache ({} coefficients); `{source}` not loaded", f.coefficients()), start.elapsed().as_secs_f64());
+                        f
+                    }
+                    None => {
+                        let (src, _, src_desc, _) = self.build(&source, log)?;
+                        let settings = fit_settings(rel_tol, dims, max_coeffs)
+                            .map_err(|e| self.material_error(name, e))?;
+                        let (fitted, report) = brdf::fit_brdf(src.as_ref(), &settings)
+                            .map_err(|e| self.material_error(name, e))?;
+                        let stored = self.cache.put(
+                            "fit",
+                            key,
+                            &settings_text,
+                            serde_json::to_value(&fitted).unwrap_or_default(),
+                        );
+                        let worst = report
+                            .channels
+                            .iter()
+                            .map(|c| c.max_rel)
+                            .fold(0.0, f64::max);
+                        log.push(Action::Prepared, &what, format!("fitted {src_desc} ({}-D, rel_tol {rel_tol}): {} coefficients, max rel error {worst:.3}; {stored}", dims, fitted.coefficients()), start.elapsed().as_secs_f64());
+                        fitted
+                    }
+                };
+                let bytes = fitted.byte_size_f32();
+                let d = format!(
+                    "rational fit of `{source}` ({} coefficients); {}",
+                    fitted.coefficients(),
+                    domain_note(&fitted)
+                );
+                (Arc::new(FitInDomain::new(fitted)), bytes, d, key)
+            }
+        };
+        if is_analytic {
+            log.push(
+                Action::Prepared,
+                &what,
+                format!("analytic {}", built.2),
+                start.elapsed().as_secs_f64(),
+            );
+        }
+        Ok(built)
+    }
+}
+
+fn domain_note(fit: &FittedBrdf) -> String {
+    format!(
+        "evaluated at {} degrees beyond its sampled elevations",
+        fit.reduction.max_elevation_deg
+    )
+}
+
+fn fit_settings(
+    rel_tol: f64,
+    dims: usize,
+    max_coeffs: usize,
+) -> Result<BrdfFitSettings, brdf::BrdfError> {
+    let kind = match dims {
+        2 => ReductionKind::Slice2d,
+        3 => ReductionKind::Full3d,
+        d => {
+            return Err(brdf::BrdfError::Invalid {
+                name: "dims",
+                reason: format!("{d}: use 2 or 3"),
+            })
+        }
+    };
+    let mut r = Reduction::default().with_kind(kind);
+    if dims == 3 {
+        r = r.with_resolution(45, 45).with_phi_resolution(45);
+    }
+    let engine = rational_core::FitSettings::default()
+        .with_coeff_range(2, max_coeffs)
+        .map_err(|e| brdf::BrdfError::Invalid {
+            name: "max_coeffs",
+            reason: e.to_string(),
+        })?;
+    Ok(BrdfFitSettings::default()
+        .with_reduction(r)
+        .with_rel_tol(rel_tol)?
+        .with_baselines(false)
+        .with_fit_settings(engine))
+}
+
+pub(super) fn build_sampler(
+    name: &str,
+    brdf: &Arc<dyn Brdf>,
+    key: u64,
+    kind: SamplerKind,
+    samples_brdf: bool,
+    cache: &Cache,
+    log: &mut PrepareLog,
+) -> Result<(Arc<dyn Sampler>, usize), RenderError> {
+    let what = format!("{} sampler for {name}", kind.name());
+    if kind == SamplerKind::Cosine {
+        return Ok((Arc::new(CosineSampler), 0));
+    }
+    if !samples_brdf {
+        log.push(
+            Action::Skipped,
+            what,
+            "the integrator never samples the BRDF (direct lighting from delta lights only)",
+            0.0,
+        );
+        return Ok((Arc::new(CosineSampler), 0));
+    }
+    let err = |e| RenderError::Sampler {
+        name: name.to_string(),
+        source: e,
+    };
+    let start = Instant::now();
+    let table_settings = TableSettings::default();
+    if kind == SamplerKind::Rational {
+        let settings_text = format!(
+            "rational cdf {table_settings:?} {:?}",
+            CdfFitSettings::default()
+        );
+        let ckey = content_hash(&[&key.to_le_bytes(), settings_text.as_bytes()]);
+        if let Some(cdf) = cache
+            .get("cdf", ckey, &settings_text)
+            .and_then(|v| RationalCdf::from_json(&v.to_string()).ok())
+        {
+            let bytes = cdf.byte_size_f32();
+            log.push(
+                Action::Cached,
+                what,
+                format!("inverse CDFs read from the cache, {bytes} bytes"),
+                start.elapsed().as_secs_f64(),
+            );
+            return Ok((Arc::new(RationalSampler::new(cdf)), bytes));
+        }
+        let table = CdfTable::new(brdf.as_ref(), table_settings).map_err(err)?;
+        let (cdf, _report) = cdf::fit_table(&table, &CdfFitSettings::default()).map_err(err)?;
+        let bytes = cdf.byte_size_f32();
+        let payload = serde_json::from_str(&cdf.to_json()).unwrap_or_default();
+        let stored = cache.put("cdf", ckey, &settings_text, payload);
+        log.push(
+            Action::Prepared,
+            what,
+            format!("tabulated and fitted inverse CDFs, {bytes} bytes; {stored}"),
+            start.elapsed().as_secs_f64(),
+        );
+        return Ok((Arc::new(RationalSampler::new(cdf)), bytes));
+    }
+    let table = CdfTable::new(brdf.as_ref(), table_settings).map_err(err)?;
+    let bytes = table.byte_size_f32();
+    log.push(
+        Action::Prepared,
+        what,
+        format!("tabulated CDFs and pdf, {bytes} bytes"),
+        start.elapsed().as_secs_f64(),
+    );
+    Ok((Arc::new(TabulatedSampler::new(table)), bytes))
+}
