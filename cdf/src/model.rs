@@ -151,8 +151,7 @@ impl InverseCdf {
         let c = self.component;
         let k = c.known_part(natural);
         let x = c.fit_coordinates(natural);
-        let (g, grad) = self.rational.value_and_gradient(&x);
-        let dg = grad[c.sampled()];
+        let (g, dg) = self.rational.value_and_partial(&x, c.sampled());
         let value = if k.weight == 0.0 {
             k.base
         } else {

@@ -370,6 +370,39 @@ impl Basis {
         }
     }
 
+    /// `(sum a_j phi_j, sum b_j phi_j, sum a_j d phi_j/d x_k, sum b_j d phi_j/d x_k)`
+    /// at `x` in one pass, with no per-function storage: the value and one
+    /// partial derivative of a rational function `p / q`.
+    pub fn combine_with_partial(&self, x: &[f64], k: usize, a: &[f64], b: &[f64]) -> [f64; 4] {
+        let d = self.dim();
+        let t: Vec<f64> = (0..d).map(|i| self.domain.map(i, x[i])).collect();
+        let (tab, dtab) = self.tables(&t, true);
+        let scale = self.domain.scale(k);
+        let mut out = [0.0; 4];
+        for (j, idx) in self.indices.iter().enumerate() {
+            let (ca, cb) = (
+                a.get(j).copied().unwrap_or(0.0),
+                b.get(j).copied().unwrap_or(0.0),
+            );
+            if ca == 0.0 && cb == 0.0 {
+                continue;
+            }
+            let mut others = 1.0;
+            for l in 0..d {
+                if l != k {
+                    others *= tab[l][idx[l] as usize];
+                }
+            }
+            let v = others * tab[k][idx[k] as usize];
+            let g = others * dtab[k][idx[k] as usize] * scale;
+            out[0] += ca * v;
+            out[1] += cb * v;
+            out[2] += ca * g;
+            out[3] += cb * g;
+        }
+        out
+    }
+
     fn tables(&self, t: &[f64], with_derivative: bool) -> (Vec<Vec<f64>>, Vec<Vec<f64>>) {
         let d = self.dim();
         let mut tab = Vec::with_capacity(d);

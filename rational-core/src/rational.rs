@@ -117,6 +117,15 @@ impl RationalFunction {
         self.value_and_gradient(x).1
     }
 
+    /// `r(x)` and `d r / d x_k` in one pass over the basis, without the
+    /// other partial derivatives (what an inverse CDF's Jacobian needs).
+    pub fn value_and_partial(&self, x: &[f64], k: usize) -> (f64, f64) {
+        let [p, q, dp, dq] =
+            self.basis
+                .combine_with_partial(x, k, &self.numerator, &self.denominator);
+        (p / q, (dp * q - p * dq) / (q * q))
+    }
+
     /// `r(x)` and its gradient from one evaluation of the basis.
     pub fn value_and_gradient(&self, x: &[f64]) -> (f64, Vec<f64>) {
         let d = self.dim();
@@ -222,6 +231,35 @@ mod tests {
             b[k] -= h;
             let fd = (r.eval(&a) - r.eval(&b)) / (2.0 * h);
             assert!((fd - g[k]).abs() < 1e-6, "{k}: {fd} vs {}", g[k]);
+        }
+    }
+
+    #[test]
+    fn one_partial_matches_the_gradient() {
+        let d = Domain::new(vec![0.0, -1.0, 0.5], vec![1.0, 2.0, 3.0]).unwrap();
+        for family in [
+            BasisFamily::Chebyshev,
+            BasisFamily::Legendre,
+            BasisFamily::Monomial,
+        ] {
+            let b = Basis::new(family, d.clone(), 10).unwrap();
+            let r = RationalFunction::new(
+                b,
+                vec![0.3, 1.0, -0.5, 0.2, 0.7, -0.1, 0.05],
+                vec![2.0, 0.1, 0.3, 0.05, 0.1, 0.0, 0.02, -0.03, 0.01, 0.04],
+            )
+            .unwrap();
+            for x in [[0.4, 1.3, 1.0], [0.9, -0.7, 2.9], [0.0, 0.0, 0.5]] {
+                let (v, g) = r.value_and_gradient(&x);
+                for k in 0..3 {
+                    let (v1, g1) = r.value_and_partial(&x, k);
+                    let tol = 1e-13 * (1.0 + v.abs() + g[k].abs());
+                    assert!(
+                        (v1 - v).abs() < tol && (g1 - g[k]).abs() < tol,
+                        "{family:?} {x:?} {k}"
+                    );
+                }
+            }
         }
     }
 }
