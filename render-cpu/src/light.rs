@@ -122,10 +122,6 @@ pub struct EnvironmentMap {
     mass: Vec<f64>,
 }
 
-fn luminance(c: [f32; 3]) -> f64 {
-    0.2126 * f64::from(c[0]) + 0.7152 * f64::from(c[1]) + 0.0722 * f64::from(c[2])
-}
-
 fn cumulate(w: &[f64]) -> Vec<f64> {
     let total: f64 = w.iter().sum();
     let mut out = Vec::with_capacity(w.len() + 1);
@@ -163,7 +159,8 @@ impl EnvironmentMap {
             let sin = (PI * (y as f64 + 0.5) / h as f64).sin();
             for x in 0..w {
                 // A floor keeps every direction reachable (needed for MIS).
-                let m = (luminance(image.pixels[y * w + x]).max(0.0) + 1e-6) * sin;
+                let m =
+                    (cdf::luminance(image.pixels[y * w + x].map(f64::from)).max(0.0) + 1e-6) * sin;
                 mass[y * w + x] = m;
                 rows[y] += m;
             }

@@ -17,16 +17,29 @@ use std::sync::Arc;
 /// evaluation).
 #[derive(Debug, Clone)]
 pub struct FitInDomain {
-    /// The fit.
-    pub fit: brdf::FittedBrdf,
+    fit: brdf::FittedBrdf,
     compact: brdf::CompactBrdf,
+    /// The elevation cut (radians) and its cosine.
+    limit: f64,
+    cos_limit: f64,
 }
 
 impl FitInDomain {
     /// Wraps a fit.
     pub fn new(fit: brdf::FittedBrdf) -> Self {
         let compact = brdf::CompactBrdf::from_fitted(&fit);
-        Self { fit, compact }
+        let limit = fit.reduction.max_elevation_deg.to_radians();
+        Self {
+            fit,
+            compact,
+            limit,
+            cos_limit: limit.cos(),
+        }
+    }
+
+    /// The fit.
+    pub fn fit(&self) -> &brdf::FittedBrdf {
+        &self.fit
     }
 
     /// The f32 form used for evaluation.
@@ -36,7 +49,7 @@ impl FitInDomain {
 
     /// The elevation cut in radians.
     pub fn max_elevation(&self) -> f64 {
-        self.fit.reduction.max_elevation_deg.to_radians()
+        self.limit
     }
 }
 
@@ -45,11 +58,9 @@ impl Brdf for FitInDomain {
         if wi[2] <= 0.0 || wo[2] <= 0.0 {
             return [0.0; 3];
         }
-        let limit = self.max_elevation();
-        let cos_limit = limit.cos();
         let clamp = |d: brdf::Vec3| {
-            let d = if d[2] < cos_limit {
-                brdf::from_spherical(limit, d[1].atan2(d[0]))
+            let d = if d[2] < self.cos_limit {
+                brdf::from_spherical(self.limit, d[1].atan2(d[0]))
             } else {
                 d
             };

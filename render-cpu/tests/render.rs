@@ -445,5 +445,19 @@ fn an_exr_environment_map_lights_the_furnace() {
         .unwrap_err()
         .to_string();
     assert!(err.contains("none.exr"), "{err}");
+    let mut pixels = vec![[1.0f32; 3]; w * h];
+    pixels[5] = [1.0, -0.5, 1.0];
+    render_cpu::Image::new(w, h, pixels)
+        .write_exr(&dir.join("negative.exr"))
+        .unwrap();
+    let desc =
+        SceneDescription::parse(&missing.replace("none.exr", "negative.exr"), "env").unwrap();
+    let err = prepare(desc, &dir, "env", &options(SamplerKind::Cosine, true))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("negative radiance") && err.contains("(5, 0)"),
+        "{err}"
+    );
     std::fs::remove_dir_all(&dir).ok();
 }

@@ -241,6 +241,24 @@ pub(super) fn build_environment(
             let p = resolve_path(base, path)?;
             let img = Image::read_exr(&p)?;
             let (w, h) = (img.width, img.height);
+            if w == 0 || h == 0 {
+                return Err(scene_error(
+                    origin,
+                    format!("environment {}: no pixels", p.display()),
+                ));
+            }
+            if let Some(i) = img.pixels.iter().position(|px| px.iter().any(|v| *v < 0.0)) {
+                return Err(scene_error(
+                    origin,
+                    format!(
+                        "environment {}: pixel ({}, {}) is {:?}, a negative radiance",
+                        p.display(),
+                        i % w,
+                        i / w,
+                        img.pixels[i]
+                    ),
+                ));
+            }
             let map =
                 EnvironmentMap::new(img, check_positive(origin, "environment scale", *scale)?);
             log.push(
