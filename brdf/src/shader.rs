@@ -5,6 +5,7 @@
 
 use crate::compact::{CompactBrdf, CompactChannel};
 use crate::reduce::Coordinates;
+use crate::BrdfError;
 use rational_core::BasisFamily;
 
 /// Target shading language.
@@ -61,9 +62,9 @@ fn fn_header(l: Language, name: &str, args: &[(&str, &str)], ret: &str) -> Strin
     }
 }
 
-fn channel_fn(l: Language, s: &Syntax, c: &CompactChannel, k: usize) -> String {
+fn channel_fn(l: Language, s: &Syntax, c: &CompactChannel, k: usize, prefix: &str) -> String {
     let f = s.float;
-    let mut out = fn_header(l, &format!("ratfit_channel_{k}"), &[("x", s.vec3)], f);
+    let mut out = fn_header(l, &format!("{prefix}_channel_{k}"), &[("x", s.vec3)], f);
     let comps = ["x", "y", "z"];
     for d in 0..c.lower.len() {
         let w = c.upper[d] - c.lower[d];
@@ -129,6 +130,37 @@ fn channel_fn(l: Language, s: &Syntax, c: &CompactChannel, k: usize) -> String {
 /// included; zero below the horizon), with `wi`, `wo` unit vectors in the
 /// local frame (z along the normal).
 pub fn shader_source(b: &CompactBrdf, l: Language) -> String {
+    source_with_prefix(b, l, "ratfit")
+}
+
+/// [`shader_source`] with every global name starting with `prefix` instead
+/// of `ratfit` (`{prefix}_brdf`, `{prefix}_coords`, upper-case constants),
+/// so that several fits can live in one shader. `prefix` must be an
+/// identifier: ASCII letters, digits and `_`, not starting with a digit.
+///
+/// # Errors
+/// [`BrdfError::Invalid`] when `prefix` is not such an identifier.
+pub fn shader_source_named(
+    b: &CompactBrdf,
+    l: Language,
+    prefix: &str,
+) -> Result<String, BrdfError> {
+    let identifier = !prefix.is_empty()
+        && !prefix.starts_with(|c: char| c.is_ascii_digit())
+        && prefix
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '_');
+    if !identifier {
+        return Err(BrdfError::Invalid {
+            name: "shader prefix",
+            reason: format!("`{prefix}` is not an identifier"),
+        });
+    }
+    Ok(source_with_prefix(b, l, prefix))
+}
+
+fn source_with_prefix(b: &CompactBrdf, l: Language, prefix: &str) -> String {
+    let upper = prefix.to_ascii_uppercase();
     let s = syntax(l);
     let (f, v3) = (s.float, s.vec3);
     let mut out = format!(
@@ -138,45 +170,41 @@ pub fn shader_source(b: &CompactBrdf, l: Language) -> String {
     );
     out += &match l {
         Language::Wgsl => format!(
-            "const RATFIT_MAX_THETA_D: f32 = {};\n\n",
+            "const {upper}_MAX_THETA_D: f32 = {};\n\n",
             lit(b.max_theta_d)
         ),
         Language::Glsl => format!(
-            "const float RATFIT_MAX_THETA_D = {};\n\n",
+            "const float {upper}_MAX_THETA_D = {};\n\n",
             lit(b.max_theta_d)
         ),
     };
-    out += &fn_header(l, "ratfit_elev", &[("v", v3)], f);
-    out +=
-        &format!("    return 2.0 * asin(min(0.5 * length(v - {v3}(0.0, 0.0, 1.0)), 1.0));\n}}\n\n");
-    out += &fn_header(l, "ratfit_coords", &[("wi", v3), ("wo", v3)], v3);
+    out += &fn_header(l, &format!("{prefix}_elev"), &[("v", v3)], f);
+    out += &format!("    return {}(length(v.xy), v.z);\n}}\n\n", s.atan2);
+    out += &fn_header(
+        l,
+        &format!("{prefix}_coords"),
+        &[("wi", v3), ("wo", v3)],
+        v3,
+    );
     out += &format!("    {} = normalize(wi + wo);\n", decl(l, "h", v3, false));
-    out += &format!("    {} = ratfit_elev(h);\n", decl(l, "theta_h", f, false));
+    out += &format!("    {} = {prefix}_elev(h);\n", decl(l, "theta_h", f, false));
+    out += &format!("    {} = length(h.xy);\n", decl(l, "s", f, false));
     out += &format!(
-        "    {} = {}(h.y, h.x);\n",
-        decl(l, "phi_h", f, false),
-        s.atan2
+        "    {} = 1.0;\n    {} = 0.0;\n",
+        decl(l, "cp", f, true),
+        decl(l, "sp", f, true)
     );
+    out += "    if (s > 0.0) { cp = h.x / s; sp = h.y / s; }\n";
     out += &format!(
-        "    {} = sin(-phi_h);\n    {} = cos(-phi_h);\n",
-        decl(l, "sp", f, false),
-        decl(l, "cp", f, false)
-    );
-    out += &format!(
-        "    {} = {v3}(wi.x * cp - wi.y * sp, wi.x * sp + wi.y * cp, wi.z);\n",
+        "    {} = {v3}(wi.x * cp + wi.y * sp, wi.y * cp - wi.x * sp, wi.z);\n",
         decl(l, "a", v3, false)
     );
     out += &format!(
-        "    {} = sin(-theta_h);\n    {} = cos(-theta_h);\n",
-        decl(l, "st", f, false),
-        decl(l, "ct", f, false)
-    );
-    out += &format!(
-        "    {} = {v3}(a.x * ct + a.z * st, a.y, -a.x * st + a.z * ct);\n",
+        "    {} = {v3}(a.x * h.z - a.z * s, a.y, a.x * s + a.z * h.z);\n",
         decl(l, "d", v3, false)
     );
     out += &format!(
-        "    {} = min(ratfit_elev(d), RATFIT_MAX_THETA_D);\n",
+        "    {} = min({prefix}_elev(d), {upper}_MAX_THETA_D);\n",
         decl(l, "theta_d", f, false)
     );
     out += &format!(
@@ -196,13 +224,16 @@ pub fn shader_source(b: &CompactBrdf, l: Language) -> String {
     };
     out += &format!("    return {v3}({a}, {bb}, phi_d);\n}}\n\n");
     for (k, c) in b.channels.iter().enumerate() {
-        out += &channel_fn(l, &s, c, k);
+        out += &channel_fn(l, &s, c, k, prefix);
     }
-    out += &fn_header(l, "ratfit_brdf", &[("wi", v3), ("wo", v3)], v3);
+    out += &fn_header(l, &format!("{prefix}_brdf"), &[("wi", v3), ("wo", v3)], v3);
     out += &format!("    if (wi.z <= 0.0 || wo.z <= 0.0) {{ return {v3}(0.0, 0.0, 0.0); }}\n");
-    out += &format!("    {} = ratfit_coords(wi, wo);\n", decl(l, "x", v3, false));
+    out += &format!(
+        "    {} = {prefix}_coords(wi, wo);\n",
+        decl(l, "x", v3, false)
+    );
     let calls: Vec<String> = (0..b.channels.len())
-        .map(|k| format!("ratfit_channel_{k}(x)"))
+        .map(|k| format!("{prefix}_channel_{k}(x)"))
         .collect();
     out += &format!(
         "    return max({v3}({}), {v3}(0.0, 0.0, 0.0));\n}}\n",

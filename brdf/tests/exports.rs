@@ -1,6 +1,6 @@
 //! The f32 path, the compact binary format and the generated shaders.
 
-use brdf::shader::{shader_source, Language};
+use brdf::shader::{shader_source, shader_source_named, Language};
 use brdf::{
     compact::to_f32, fit_brdf, from_spherical, BlinnPhong, BrdfFitSettings, CompactBrdf,
     CookTorranceGgx, Coordinates, FittedBrdf, Reduction, ReductionKind,
@@ -146,6 +146,38 @@ fn generated_wgsl_and_glsl_are_valid_shaders() {
         )
         .validate(&module)
         .unwrap_or_else(|e| panic!("{e:?}\n{glsl}"));
+    }
+}
+
+#[test]
+fn named_shaders_of_several_fits_live_in_one_module() {
+    let all = fits();
+    let mut wgsl = String::new();
+    for (k, f) in all.iter().enumerate() {
+        let c = CompactBrdf::from_fitted(f);
+        let one = shader_source_named(&c, Language::Wgsl, &format!("fit{k}")).unwrap();
+        assert!(!one.contains("ratfit_") && !one.contains("RATFIT_"));
+        wgsl += &one;
+    }
+    let module = naga::front::wgsl::parse_str(&wgsl)
+        .unwrap_or_else(|e| panic!("{}\n{wgsl}", e.emit_to_string(&wgsl)));
+    naga::valid::Validator::new(
+        naga::valid::ValidationFlags::all(),
+        naga::valid::Capabilities::all(),
+    )
+    .validate(&module)
+    .unwrap_or_else(|e| panic!("{e:?}"));
+    for k in 0..all.len() {
+        let name = format!("fit{k}_brdf");
+        assert!(module
+            .functions
+            .iter()
+            .any(|(_, f)| f.name.as_deref() == Some(name.as_str())));
+    }
+    let c = CompactBrdf::from_fitted(&all[0]);
+    for bad in ["", "9lives", "a-b", "fit 1"] {
+        let e = shader_source_named(&c, Language::Wgsl, bad).unwrap_err();
+        assert!(e.to_string().contains("shader prefix"), "{e}");
     }
 }
 

@@ -43,22 +43,11 @@ pub struct OverrideArgs {
 impl OverrideArgs {
     /// The library's options.
     pub fn options(&self) -> Result<RenderOptions> {
-        let resolution = match &self.resolution {
-            None => None,
-            Some(r) => {
-                let (w, h) = r
-                    .split_once('x')
-                    .with_context(|| format!("--resolution `{r}` is not WIDTHxHEIGHT"))?;
-                Some((
-                    w.trim()
-                        .parse()
-                        .with_context(|| format!("width in `{r}`"))?,
-                    h.trim()
-                        .parse()
-                        .with_context(|| format!("height in `{r}`"))?,
-                ))
-            }
-        };
+        let resolution = self
+            .resolution
+            .as_deref()
+            .map(parse_resolution)
+            .transpose()?;
         let swaps = self
             .swaps
             .iter()
@@ -81,6 +70,24 @@ impl OverrideArgs {
     }
 }
 
+/// Parses WIDTHxHEIGHT.
+pub fn parse_resolution(r: &str) -> Result<(usize, usize)> {
+    let (w, h) = r
+        .split_once('x')
+        .with_context(|| format!("--resolution `{r}` is not WIDTHxHEIGHT"))?;
+    Ok((
+        w.trim()
+            .parse()
+            .with_context(|| format!("width in `{r}`"))?,
+        h.trim()
+            .parse()
+            .with_context(|| format!("height in `{r}`"))?,
+    ))
+}
+
+/// What `--gpu` says in a build without the GPU renderer.
+pub const NO_GPU: &str = "this ratfit was built without the GPU renderer; rebuild with `cargo build --release -p ratfit-cli --features gpu`";
+
 /// Options of `ratfit render`.
 #[derive(Args)]
 pub struct RenderArgs {
@@ -94,6 +101,11 @@ pub struct RenderArgs {
     /// Print the figures as JSON on standard output.
     #[arg(long)]
     json: bool,
+    /// Render on the GPU (a build with `--features gpu`): direct light from
+    /// directional and point lights through each pixel centre, no shadow
+    /// rays, Lambert and fitted materials, triangles.
+    #[arg(long)]
+    gpu: bool,
 }
 
 /// A progress bar over image rows on standard error (terminals only).
@@ -179,7 +191,13 @@ pub fn run_render(args: RenderArgs) -> Result<()> {
             bail!("{}: the output must end in .png or .exr", o.display());
         }
     }
+    if args.gpu && !cfg!(feature = "gpu") {
+        bail!("--gpu: {NO_GPU}");
+    }
     let (scene, prepare_s) = prepare_logged(&args.scene, &options)?;
+    if args.gpu {
+        return render_on_gpu(&args, &scene, prepare_s);
+    }
     let out = render(&scene, &row_bar());
     let start = Instant::now();
     for o in &args.outputs {
@@ -200,6 +218,55 @@ pub fn run_render(args: RenderArgs) -> Result<()> {
         println!(
             "phases: prepare {prepare_s:.2} s, render {:.2} s, write {write_s:.2} s",
             out.stats.seconds
+        );
+    }
+    Ok(())
+}
+
+#[cfg(not(feature = "gpu"))]
+fn render_on_gpu(_args: &RenderArgs, _scene: &Scene, _prepare_s: f64) -> Result<()> {
+    bail!("--gpu: {NO_GPU}")
+}
+
+/// `ratfit render --gpu`: one frame on the GPU, written like a CPU render.
+#[cfg(feature = "gpu")]
+fn render_on_gpu(args: &RenderArgs, scene: &Scene, prepare_s: f64) -> Result<()> {
+    let gpu_scene = wgpu_eval::GpuScene::from_scene(scene)?;
+    let ctx = wgpu_eval::GpuContext::new()?;
+    let start = Instant::now();
+    let renderer = wgpu_eval::GpuRenderer::new(&ctx, &gpu_scene)?;
+    let image = renderer.render()?;
+    let first_s = start.elapsed().as_secs_f64();
+    let timing = renderer.time_frames(4)?;
+    for o in &args.outputs {
+        image.write(o, scene.exposure)?;
+        eprintln!("wrote {}", o.display());
+    }
+    let adapter = ctx.adapter_name();
+    if args.json {
+        let v = serde_json::json!({
+            "adapter": adapter,
+            "prepare_seconds": prepare_s,
+            "first_frame_seconds": first_s,
+            "seconds_per_frame": timing.seconds_per_frame,
+            "frames_timed": timing.frames,
+            "lights": gpu_scene.lights.len(),
+            "triangles": gpu_scene.vertices.len() / 3,
+            "coefficients": gpu_scene.coefficients(),
+            "material_bytes": scene.material_bytes(),
+        });
+        println!("{}", serde_json::to_string_pretty(&v)?);
+    } else {
+        println!(
+            "GPU: {adapter}\n{}x{} pixels, {} triangles, {} lights, {} coefficients\nfirst frame (shader compilation, upload, read-back) {first_s:.3} s; then {:.4} s per frame ({:.1} frames/s, median of {} frames)\nphases: prepare {prepare_s:.2} s",
+            gpu_scene.width,
+            gpu_scene.height,
+            gpu_scene.vertices.len() / 3,
+            gpu_scene.lights.len(),
+            gpu_scene.coefficients(),
+            timing.seconds_per_frame,
+            1.0 / timing.seconds_per_frame,
+            timing.frames
         );
     }
     Ok(())

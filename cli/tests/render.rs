@@ -257,3 +257,100 @@ fn the_example_scenes_prepare_and_render() {
     }
     std::fs::remove_dir_all(&dir).ok();
 }
+
+const GPU_SCENE: &str = r#"
+[camera]
+from = [0.0, 0.5, 3.0]
+to = [0.0, 0.0, 0.0]
+width = 48
+height = 36
+
+[integrator]
+kind = "direct"
+spp = 1
+shadows = false
+
+[materials.glossy]
+kind = "ggx"
+kd = [0.1, 0.2, 0.4]
+f0 = [0.04, 0.04, 0.04]
+alpha = 0.3
+
+[materials.glossy_fit]
+kind = "fitted"
+source = "glossy"
+rel_tol = 0.2
+
+[[objects]]
+shape = "mesh-sphere"
+center = [0.0, 0.0, 0.0]
+radius = 0.8
+triangles = 300
+material = "glossy_fit"
+
+[[lights]]
+kind = "directional-set"
+count = 16
+irradiance = [2.0, 2.0, 2.0]
+axis = [0.0, 0.5, 1.0]
+max_angle_deg = 70.0
+"#;
+
+/// `--gpu` renders what the CPU renders (same scene, compared in Lab) in a
+/// build with the `gpu` feature, and names the missing feature otherwise.
+#[test]
+fn render_on_the_gpu_matches_the_cpu_or_names_the_missing_feature() {
+    let dir = scratch("gpu");
+    let scene = dir.join("gpu.toml");
+    std::fs::write(&scene, GPU_SCENE).unwrap();
+    let mut gpu = ratfit();
+    gpu.arg("render")
+        .arg(&scene)
+        .arg("--gpu")
+        .arg("--no-cache")
+        .arg("-o")
+        .arg(dir.join("gpu.exr"));
+    if !cfg!(feature = "gpu") {
+        let e = run_err(&mut gpu);
+        assert!(
+            e.contains("without the GPU renderer") && e.contains("--features gpu"),
+            "{e}"
+        );
+        return;
+    }
+    let out = gpu.output().unwrap();
+    let text = String::from_utf8_lossy(&out.stderr).into_owned();
+    if !out.status.success() && text.contains("no GPU adapter") {
+        let required = std::env::var("RATFIT_REQUIRE_GPU").is_ok_and(|v| !v.is_empty() && v != "0");
+        assert!(!required, "RATFIT_REQUIRE_GPU is set, but: {text}");
+        use std::io::Write;
+        let _ = writeln!(std::io::stderr(), "SKIPPED render --gpu: {text}");
+        return;
+    }
+    assert!(out.status.success(), "{text}");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        stdout.contains("GPU: ") && stdout.contains("16 lights"),
+        "{stdout}"
+    );
+    run_ok(
+        ratfit()
+            .arg("render")
+            .arg(&scene)
+            .arg("--no-cache")
+            .arg("-o")
+            .arg(dir.join("cpu.exr")),
+    );
+    let cmp = run_ok(
+        ratfit()
+            .arg("compare")
+            .arg(dir.join("cpu.exr"))
+            .arg(dir.join("gpu.exr"))
+            .arg("--json"),
+    );
+    let start = cmp.find('{').unwrap();
+    let end = cmp.rfind('}').unwrap();
+    let v: serde_json::Value = serde_json::from_str(&cmp[start..=end]).unwrap();
+    let mean = v["covered_mean_de2000"].as_f64().unwrap();
+    assert!(mean < 0.05, "{cmp}");
+}

@@ -33,6 +33,31 @@ impl Camera {
         }
     }
 
+    /// The eye.
+    pub fn origin(&self) -> Vec3 {
+        self.origin
+    }
+
+    /// Unit view direction.
+    pub fn forward(&self) -> Vec3 {
+        self.forward
+    }
+
+    /// Unit vector to the right of the image.
+    pub fn right(&self) -> Vec3 {
+        self.right
+    }
+
+    /// Unit vector to the top of the image.
+    pub fn up(&self) -> Vec3 {
+        self.up
+    }
+
+    /// Tangent of half the vertical field of view.
+    pub fn tan_half_fov(&self) -> f64 {
+        self.tan_half
+    }
+
     /// Image width in pixels.
     pub fn width(&self) -> usize {
         self.width

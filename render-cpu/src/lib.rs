@@ -72,5 +72,5 @@ pub use prepare::{
     content_hash, prepare, prepare_file, resolve_path, spiral_directions, Action, LogEntry,
     PrepareLog, RenderOptions,
 };
-pub use scene::{IntegratorKind, SamplerKind, SceneDescription};
-pub use world::{FitInDomain, IntegratorSettings, Object, PreparedMaterial, Scene};
+pub use scene::{IntegratorKind, MaterialDescription, SamplerKind, SceneDescription};
+pub use world::{ClosedForm, FitInDomain, IntegratorSettings, Object, PreparedMaterial, Scene};

@@ -89,6 +89,21 @@ pub struct PreparedMaterial {
     pub sampler: Arc<dyn Sampler>,
     /// Bytes the sampler stores.
     pub sampler_bytes: usize,
+    /// The reflectance in a form other evaluators (shaders) can reproduce,
+    /// when it has one: Lambert and rational fits.
+    pub closed_form: Option<ClosedForm>,
+}
+
+/// A material's reflectance in closed form.
+#[derive(Debug, Clone)]
+pub enum ClosedForm {
+    /// `albedo / pi`.
+    Lambert {
+        /// RGB albedo.
+        albedo: [f64; 3],
+    },
+    /// A rational fit, evaluated inside its sampled elevations.
+    Fit(Arc<FitInDomain>),
 }
 
 impl PreparedMaterial {

@@ -4,6 +4,7 @@
 //! `ratfit bench check` re-checks a finished run's outputs.
 
 mod aaa;
+mod gpu;
 mod instances;
 mod paper;
 mod render;
@@ -37,6 +38,9 @@ enum BenchWhat {
     /// The paper's rendering experiments on the example scenes: sphere data
     /// against fit, sampler variance, global illumination, frames per second.
     Paper(paper::PaperArgs),
+    /// Frames per second and evaluations per second of fitted materials on
+    /// the GPU against the CPU (a build with `--features gpu`).
+    Gpu(gpu::GpuBenchArgs),
     /// Check a finished run's outputs: files present, every backend timed,
     /// no point claimed solved yet violated without the verifier saying so.
     Check {
@@ -76,6 +80,7 @@ pub fn run_bench(args: BenchArgs) -> Result<()> {
         BenchWhat::Fit(a) => run_fit(a),
         BenchWhat::Render(a) => render::run(a),
         BenchWhat::Paper(a) => paper::run(a),
+        BenchWhat::Gpu(a) => gpu::run(a),
         BenchWhat::Check { dir, backends } => {
             let names: Vec<&str> = backends
                 .unwrap_or_else(Backend::available)

@@ -5,7 +5,7 @@ use super::checks::{check_positive, check_rgb, resolve_path, scene_error};
 use super::{Action, PrepareLog};
 use crate::error::{io, RenderError};
 use crate::scene::{MaterialDescription, SamplerKind};
-use crate::world::FitInDomain;
+use crate::world::{ClosedForm, FitInDomain};
 use brdf::{
     AshikhminShirley, BlinnPhong, Brdf, BrdfFitSettings, CookTorranceGgx, FittedBrdf, Lambert,
     MerlBrdf, Reduction, ReductionKind, RglBrdf,
@@ -30,7 +30,8 @@ pub(super) struct MaterialBuilder<'a> {
     pub(super) visiting: Vec<String>,
 }
 
-pub(super) type Built = (Arc<dyn Brdf>, usize, String, u64);
+/// The BRDF, its bytes, a description, its cache key and its closed form.
+pub(super) type Built = (Arc<dyn Brdf>, usize, String, u64, Option<ClosedForm>);
 
 impl MaterialBuilder<'_> {
     fn material_error(&self, name: &str, e: brdf::BrdfError) -> RenderError {
@@ -95,12 +96,15 @@ impl MaterialBuilder<'_> {
             |v: [f64; 3], w: &str| check_rgb(self.origin, &format!("materials.{name}.{w}"), v);
         let analytic = |b: Arc<dyn Brdf>| -> Built {
             let d = b.name();
-            (b, 0, d, key)
+            (b, 0, d, key, None)
         };
         let built: Built = match desc {
-            MaterialDescription::Lambert { albedo } => analytic(Arc::new(Lambert {
-                albedo: rgb(albedo, "albedo")?,
-            })),
+            MaterialDescription::Lambert { albedo } => {
+                let albedo = rgb(albedo, "albedo")?;
+                let mut built = analytic(Arc::new(Lambert { albedo }));
+                built.4 = Some(ClosedForm::Lambert { albedo });
+                built
+            }
             MaterialDescription::BlinnPhong { kd, ks, exponent } => {
                 analytic(Arc::new(BlinnPhong {
                     kd: rgb(kd, "kd")?,
@@ -145,7 +149,7 @@ impl MaterialBuilder<'_> {
                     format!("loaded {d}, {bytes} bytes"),
                     start.elapsed().as_secs_f64(),
                 );
-                (b, bytes, d, key)
+                (b, bytes, d, key, None)
             }
             MaterialDescription::Fit { path } => {
                 let p = resolve_path(self.base, &path)?;
@@ -169,7 +173,8 @@ impl MaterialBuilder<'_> {
                     format!("read {d}; {}", domain_note(&fitted)),
                     start.elapsed().as_secs_f64(),
                 );
-                (Arc::new(FitInDomain::new(fitted)), bytes, d, key)
+                let fit = Arc::new(FitInDomain::new(fitted));
+                (fit.clone(), bytes, d, key, Some(ClosedForm::Fit(fit)))
             }
             MaterialDescription::Fitted {
                 source,
@@ -190,7 +195,7 @@ impl MaterialBuilder<'_> {
                         f
                     }
                     None => {
-                        let (src, _, src_desc, _) = self.build(&source, log)?;
+                        let (src, _, src_desc, _, _) = self.build(&source, log)?;
                         let settings = fit_settings(rel_tol, dims, max_coeffs)
                             .map_err(|e| self.material_error(name, e))?;
                         let (fitted, report) = brdf::fit_brdf(src.as_ref(), &settings)
@@ -216,7 +221,8 @@ impl MaterialBuilder<'_> {
                     fitted.coefficients(),
                     domain_note(&fitted)
                 );
-                (Arc::new(FitInDomain::new(fitted)), bytes, d, key)
+                let fit = Arc::new(FitInDomain::new(fitted));
+                (fit.clone(), bytes, d, key, Some(ClosedForm::Fit(fit)))
             }
         };
         if is_analytic {

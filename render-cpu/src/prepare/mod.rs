@@ -242,7 +242,7 @@ pub fn prepare(
     };
     let mut materials = Vec::new();
     for name in &used {
-        let (brdf, brdf_bytes, description, key) = builder.build(name, &mut log)?;
+        let (brdf, brdf_bytes, description, key, closed_form) = builder.build(name, &mut log)?;
         let (sampler, sampler_bytes) = build_sampler(
             name,
             &brdf,
@@ -259,6 +259,7 @@ pub fn prepare(
             brdf_bytes,
             sampler,
             sampler_bytes,
+            closed_form,
         });
     }
 
