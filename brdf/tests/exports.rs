@@ -111,19 +111,24 @@ fn compact_binary_round_trips() {
     }
 }
 
+/// Parses and validates WGSL with naga, panicking with the source on error.
+fn valid_wgsl(wgsl: &str) -> naga::Module {
+    let module = naga::front::wgsl::parse_str(wgsl)
+        .unwrap_or_else(|e| panic!("{}\n{wgsl}", e.emit_to_string(wgsl)));
+    naga::valid::Validator::new(
+        naga::valid::ValidationFlags::all(),
+        naga::valid::Capabilities::all(),
+    )
+    .validate(&module)
+    .unwrap_or_else(|e| panic!("{e:?}\n{wgsl}"));
+    module
+}
+
 #[test]
 fn generated_wgsl_and_glsl_are_valid_shaders() {
     for f in fits() {
         let c = CompactBrdf::from_fitted(&f);
-        let wgsl = shader_source(&c, Language::Wgsl);
-        let module = naga::front::wgsl::parse_str(&wgsl)
-            .unwrap_or_else(|e| panic!("{}\n{wgsl}", e.emit_to_string(&wgsl)));
-        naga::valid::Validator::new(
-            naga::valid::ValidationFlags::all(),
-            naga::valid::Capabilities::all(),
-        )
-        .validate(&module)
-        .unwrap_or_else(|e| panic!("{e:?}\n{wgsl}"));
+        let module = valid_wgsl(&shader_source(&c, Language::Wgsl));
         assert!(module
             .functions
             .iter()
@@ -159,14 +164,7 @@ fn named_shaders_of_several_fits_live_in_one_module() {
         assert!(!one.contains("ratfit_") && !one.contains("RATFIT_"));
         wgsl += &one;
     }
-    let module = naga::front::wgsl::parse_str(&wgsl)
-        .unwrap_or_else(|e| panic!("{}\n{wgsl}", e.emit_to_string(&wgsl)));
-    naga::valid::Validator::new(
-        naga::valid::ValidationFlags::all(),
-        naga::valid::Capabilities::all(),
-    )
-    .validate(&module)
-    .unwrap_or_else(|e| panic!("{e:?}"));
+    let module = valid_wgsl(&wgsl);
     for k in 0..all.len() {
         let name = format!("fit{k}_brdf");
         assert!(module

@@ -53,7 +53,7 @@ mod geometry;
 mod image;
 mod integrator;
 mod light;
-mod math;
+pub mod math;
 mod mesh;
 mod prepare;
 pub mod scene;

@@ -193,10 +193,9 @@ impl BatchEvaluator {
             let commands = self.dispatch(&b, chunk.len(), true);
             self.ctx
                 .scoped("evaluating", || self.ctx.queue.submit([commands]))?;
-            let bytes =
+            let values =
                 self.ctx
                     .read_back(&b.readback, (chunk.len() * 16) as u64, "reading values")?;
-            let values: &[f32] = bytemuck::cast_slice(&bytes);
             out.extend(values.chunks_exact(4).map(|v| [v[0], v[1], v[2]]));
         }
         Ok(out)

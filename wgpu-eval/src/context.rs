@@ -97,13 +97,14 @@ impl GpuContext {
             })
     }
 
-    /// Copies the first `size` bytes of a `MAP_READ` buffer back.
+    /// Copies the first `size` bytes of a `MAP_READ` buffer back as f32
+    /// values (decoded from bytes: a byte vector need not be 4-aligned).
     pub(crate) fn read_back(
         &self,
         buffer: &wgpu::Buffer,
         size: u64,
         what: &str,
-    ) -> Result<Vec<u8>, GpuError> {
+    ) -> Result<Vec<f32>, GpuError> {
         let slice = buffer.slice(..size);
         let (tx, rx) = std::sync::mpsc::channel();
         slice.map_async(wgpu::MapMode::Read, move |r| {
@@ -117,11 +118,13 @@ impl GpuContext {
         rx.recv()
             .map_err(|e| gpu(e.to_string()))?
             .map_err(|e| gpu(e.to_string()))?;
-        let bytes = {
+        let values = {
             let view = slice.get_mapped_range().map_err(|e| gpu(e.to_string()))?;
-            view.to_vec()
+            view.chunks_exact(4)
+                .map(|b| f32::from_ne_bytes([b[0], b[1], b[2], b[3]]))
+                .collect()
         };
         buffer.unmap();
-        Ok(bytes)
+        Ok(values)
     }
 }

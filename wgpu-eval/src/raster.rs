@@ -19,7 +19,8 @@ pub struct GpuRenderer {
     vertices: wgpu::Buffer,
     vertex_count: u32,
     color: wgpu::Texture,
-    depth: wgpu::Texture,
+    color_view: wgpu::TextureView,
+    depth_view: wgpu::TextureView,
     readback: wgpu::Buffer,
     padded_row: u32,
     width: u32,
@@ -45,14 +46,14 @@ impl GpuRenderer {
     /// [`GpuError::Invalid`] for an empty image or a scene without
     /// triangles, [`GpuError::Gpu`] when the device rejects something.
     pub fn new(ctx: &GpuContext, scene: &GpuScene) -> Result<Self, GpuError> {
-        let (width, height) = (scene.width as u32, scene.height as u32);
         let max = ctx.device.limits().max_texture_dimension_2d;
-        if width == 0 || height == 0 || width > max || height > max {
+        let side = |v: usize| u32::try_from(v).ok().filter(|&v| v > 0 && v <= max);
+        let (Some(width), Some(height)) = (side(scene.width), side(scene.height)) else {
             return Err(GpuError::Invalid(format!(
                 "image size {}x{} (1 to {max} pixels a side)",
                 scene.width, scene.height
             )));
-        }
+        };
         if scene.vertices.is_empty() {
             return Err(GpuError::Invalid("the scene has no triangles".into()));
         }
@@ -194,6 +195,8 @@ impl GpuRenderer {
             (pipeline, bind_group, vertices, color, depth, readback)
         })?;
         let (pipeline, bind_group, vertices, color, depth, readback) = built;
+        let color_view = color.create_view(&Default::default());
+        let depth_view = depth.create_view(&Default::default());
         Ok(Self {
             ctx: ctx.clone(),
             pipeline,
@@ -201,7 +204,8 @@ impl GpuRenderer {
             vertices,
             vertex_count: scene.vertices.len() as u32,
             color,
-            depth,
+            color_view,
+            depth_view,
             readback,
             padded_row,
             width,
@@ -216,13 +220,11 @@ impl GpuRenderer {
             .create_command_encoder(&wgpu::CommandEncoderDescriptor {
                 label: Some("frame"),
             });
-        let color = self.color.create_view(&Default::default());
-        let depth = self.depth.create_view(&Default::default());
         {
             let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                 label: Some("frame"),
                 color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view: &color,
+                    view: &self.color_view,
                     depth_slice: None,
                     resolve_target: None,
                     ops: wgpu::Operations {
@@ -231,7 +233,7 @@ impl GpuRenderer {
                     },
                 })],
                 depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                    view: &depth,
+                    view: &self.depth_view,
                     depth_ops: Some(wgpu::Operations {
                         load: wgpu::LoadOp::Clear(1.0),
                         store: wgpu::StoreOp::Discard,
@@ -276,16 +278,16 @@ impl GpuRenderer {
         let commands = self.frame(true);
         self.ctx
             .scoped("rendering", || self.ctx.queue.submit([commands]))?;
-        let bytes = self.ctx.read_back(
+        let values = self.ctx.read_back(
             &self.readback,
             self.padded_row as u64 * self.height as u64,
             "reading the image",
         )?;
         let (w, h) = (self.width as usize, self.height as usize);
+        let row_floats = self.padded_row as usize / 4;
         let mut pixels = Vec::with_capacity(w * h);
         for y in 0..h {
-            let row = &bytes[y * self.padded_row as usize..][..w * 16];
-            let row: &[f32] = bytemuck::cast_slice(row);
+            let row = &values[y * row_floats..][..w * 4];
             pixels.extend(row.chunks_exact(4).map(|p| [p[0], p[1], p[2]]));
         }
         Ok(Image::new(w, h, pixels))

@@ -2,6 +2,7 @@
 //! triangles, directional and point lights, closed-form materials.
 
 use crate::GpuError;
+use render_cpu::math::{cross, dot, normalize, sub};
 use render_cpu::{ClosedForm, IntegratorKind, Light, Scene, Shape};
 
 /// The largest light count one uniform buffer holds (32 bytes per light in
@@ -59,27 +60,6 @@ fn unsupported(what: impl Into<String>) -> GpuError {
 
 fn f32x3(v: [f64; 3]) -> [f32; 3] {
     v.map(|x| x as f32)
-}
-
-fn normalize(v: [f64; 3]) -> [f64; 3] {
-    let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-    v.map(|x| x / n)
-}
-
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
 impl GpuScene {

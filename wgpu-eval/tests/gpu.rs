@@ -198,6 +198,61 @@ fn batch_evaluation_agrees_with_the_cpu_f32_path_in_every_family_and_coordinate_
     }
 }
 
+/// The exported coordinates on the GPU against the f64 Rusinkiewicz angles:
+/// a fit whose three channels are its three coordinates. GPU `asin`, `sin`
+/// and `cos` may be 2^-11 off under Vulkan; the export uses none of them.
+#[test]
+fn gpu_coordinates_match_the_f64_half_difference_angles() {
+    let Some(ctx) = gpu("coordinates") else {
+        return;
+    };
+    let pi = std::f32::consts::PI;
+    let channel = |k: usize| {
+        let mut num = vec![0.0f32; 4];
+        num[k + 1] = 1.0;
+        CompactChannel {
+            family: BasisFamily::Monomial,
+            lower: vec![-1.0; 3],
+            upper: vec![1.0; 3],
+            indices: vec![vec![0, 0, 0], vec![1, 0, 0], vec![0, 1, 0], vec![0, 0, 1]],
+            num,
+            den: vec![1.0],
+            degrees: vec![1, 1, 1],
+        }
+    };
+    let fit = CompactBrdf {
+        coordinates: Coordinates::Radians,
+        dims: 3,
+        max_theta_d: pi,
+        channels: vec![channel(0), channel(1), channel(2)],
+    };
+    let p: Vec<DirectionPair> = pairs(20_000, 5)
+        .into_iter()
+        .filter(|(wi, wo)| wi[2] > 0.0 && wo[2] > 0.0)
+        .collect();
+    let gpu = BatchEvaluator::new(&ctx, &fit).unwrap().eval(&p).unwrap();
+    let tolerance = 2f64.powi(-16);
+    let mut worst = 0.0f64;
+    let mut compared = 0;
+    for ((wi, wo), g) in p.iter().zip(&gpu) {
+        let a = brdf::HalfDiff::from_directions(wi.map(f64::from), wo.map(f64::from));
+        let pi = std::f64::consts::PI;
+        let phi_d = if a.phi_d < 0.0 { a.phi_d + pi } else { a.phi_d };
+        // phi_d is undefined at theta_d = 0 and jumps where it folds.
+        if a.theta_d < 1e-3 || phi_d < 1e-3 || phi_d > pi - 1e-3 {
+            continue;
+        }
+        compared += 1;
+        for (gv, exact) in g.iter().zip([a.theta_h, a.theta_d, phi_d]) {
+            let e = (f64::from(*gv) - exact).abs();
+            assert!(e <= tolerance, "{wi:?} {wo:?}: GPU {g:?}, f64 {exact}");
+            worst = worst.max(e);
+        }
+    }
+    assert!(compared > 15_000, "{compared}");
+    eprintln!("coordinates: largest error {worst:.2e} rad over {compared} pairs");
+}
+
 #[test]
 fn batch_evaluation_of_real_fits_agrees_with_the_cpu_f32_path() {
     let Some(ctx) = gpu("real fits") else {

@@ -260,7 +260,7 @@ mod imp {
         for r in &rows {
             let _ = writeln!(
                 md,
-                "| {} | {} | {:.2} | {:.1} | {:.3} | {:.0}x | {:.3e} | {:.3e} | {:.3e} | {:.3} | {:.4} ({:.3}) | {:.3} ({:.2}) |",
+                "| {} | {} | {:.2} | {:.1} | {:.3} | {:.1}x | {:.3e} | {:.3e} | {:.3e} | {:.3} | {:.4} ({:.3}) | {:.3} ({:.2}) |",
                 r.material, r.coefficients, 1e3 * r.gpu_frame_s, 1.0 / r.gpu_frame_s, r.cpu_frame_s,
                 r.cpu_frame_s / r.gpu_frame_s, r.gpu_evals_resident, r.gpu_evals_transfer, r.cpu_evals,
                 r.kernel_worst, r.de_vs_cpu, r.de_max_vs_cpu, r.de_vs_table, r.table_frame_s
