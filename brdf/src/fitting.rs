@@ -200,8 +200,17 @@ pub struct ChannelReport {
     pub cos_rmse: f64,
     /// Fit time (the sweep) in seconds.
     pub seconds: f64,
+    /// Factor applied to every interval half-width when the requested ones
+    /// had no fit within the budget (1 when none was needed; see
+    /// `FitSettings::with_widening`).
+    #[serde(default = "unit_scale")]
+    pub interval_scale: f64,
     /// Baselines on the same samples (when enabled).
     pub baselines: Vec<BaselineReport>,
+}
+
+fn unit_scale() -> f64 {
+    1.0
 }
 
 /// The report of [`fit_brdf`].
@@ -256,6 +265,13 @@ impl fmt::Display for BrdfFitReport {
                 c.rmse,
                 c.cos_rmse,
                 c.seconds
+            )?;
+        }
+        for c in self.channels.iter().filter(|c| c.interval_scale > 1.0) {
+            writeln!(
+                f,
+                "  {}   no fit within the budget at the requested intervals; fitted with every half-width x{}",
+                c.channel, c.interval_scale
             )?;
         }
         for c in &self.channels {
@@ -414,6 +430,7 @@ fn fit_channel(
         rmse: report.errors.rmse,
         cos_rmse: if wsum > 0.0 { (wsq / wsum).sqrt() } else { 0.0 },
         seconds: report.seconds,
+        interval_scale: report.interval_scale,
         baselines: if s.baselines {
             vec![
                 crate::baseline::polynomial(&data, f.basis().family(), report.n_p + report.n_q),

@@ -6,7 +6,7 @@ use brdf::{
     Reduction, ReductionKind, RglBrdf, ScatteredBrdf,
 };
 use clap::Args;
-use rational_core::{Backend, FitSettings, PoleControl};
+use rational_core::{Backend, FitSettings, PoleControl, Search};
 use std::path::{Path, PathBuf};
 
 /// Options of `ratfit fit`.
@@ -51,6 +51,15 @@ pub struct FitArgs {
     /// Poles between samples: none, grid or bernstein.
     #[arg(long, default_value = "grid")]
     poles: String,
+    /// How to visit the splits: exhaustive (every split of every budget, the
+    /// paper's sweep) or staircase (the same smallest budget and splits in
+    /// about N log N solves instead of N^2/2; see `rational_core::Search`).
+    #[arg(long, default_value = "exhaustive")]
+    search: Search,
+    /// When no budget is feasible, double every interval half-width and fit
+    /// again, at most this many times (the report names the factor used).
+    #[arg(long, default_value_t = 0)]
+    max_widenings: usize,
     /// Print the report as JSON.
     #[arg(long)]
     json: bool,
@@ -116,10 +125,14 @@ pub fn run_fit(args: FitArgs) -> Result<()> {
         "bernstein" => PoleControl::Bernstein { elevation: 2 },
         other => bail!("unknown pole control `{other}` (none, grid, bernstein)"),
     };
-    let fit_settings = FitSettings::default()
+    let mut fit_settings = FitSettings::default()
         .with_coeff_range(2, args.max_coeffs)?
         .with_backend(args.backend)?
-        .with_pole_control(poles);
+        .with_pole_control(poles)
+        .with_search(args.search);
+    if args.max_widenings > 0 {
+        fit_settings = fit_settings.with_widening(2.0, args.max_widenings)?;
+    }
     if args.format == "alta" {
         return run_fit_alta(&args, &fit_settings);
     }

@@ -18,7 +18,7 @@ use anyhow::{bail, Context, Result};
 use clap::{Args, Parser, Subcommand};
 use rational_core::{
     fit, split_problem, Backend, BasisFamily, FitReport, FitSettings, IntervalData, PoleControl,
-    RationalFunction, Selection,
+    RationalFunction, Search, Selection,
 };
 use std::path::{Path, PathBuf};
 
@@ -171,6 +171,10 @@ struct FitArgs {
     /// How to choose among feasible splits: condition or depth.
     #[arg(long, default_value = "condition")]
     selection: Selection,
+    /// How to visit the splits: exhaustive (every split of every budget) or
+    /// staircase (the same smallest budget and splits in far fewer solves).
+    #[arg(long, default_value = "exhaustive")]
+    search: Search,
     /// Poles between samples: none, grid (dense-grid check) or bernstein (certificate).
     #[arg(long, default_value = "grid")]
     poles: String,
@@ -195,6 +199,7 @@ impl FitArgs {
             .with_coeff_range(self.min_coeffs, self.max_coeffs)?
             .with_backend(self.backend)?
             .with_selection(self.selection)
+            .with_search(self.search)
             .with_pole_control(poles);
         if self.max_widenings > 0 {
             s = s.with_widening(self.widen, self.max_widenings)?;

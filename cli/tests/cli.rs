@@ -444,3 +444,84 @@ fn bench_fit_writes_checked_results_and_refuses_bad_instance_files() {
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("unknown function `sinc`"));
 }
+
+#[test]
+fn bench_rgl_fits_real_files_in_two_and_three_dimensions() {
+    let dir = scratch("bench-rgl");
+    let out = ratfit()
+        .args(["bench", "rgl"])
+        .arg(&dir)
+        .arg("--out")
+        .arg(dir.join("out"))
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    assert!(
+        String::from_utf8_lossy(&out.stderr).contains("no .bsdf file"),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+
+    let data = std::env::var_os("RATFIT_DATA")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/data"));
+    if !data.join("rgl").is_dir() {
+        eprintln!("SKIPPED bench rgl on real files: no data folder (set RATFIT_DATA)");
+        return;
+    }
+    let out_dir = dir.join("out");
+    let out = ratfit()
+        .args(["bench", "rgl"])
+        .arg(data.join("rgl"))
+        .args([
+            "--only",
+            "cm_military_green",
+            "--dims",
+            "2,3",
+            "--resolution-3d",
+            "12",
+            "--max-coeffs",
+            "60",
+            "--out",
+        ])
+        .arg(&out_dir)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let csv = std::fs::read_to_string(out_dir.join("results.csv")).unwrap();
+    let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
+    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let rows: Vec<Vec<&str>> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').collect())
+        .collect();
+    assert_eq!(rows.len(), 6, "two fits of three channels: {csv}");
+    for r in &rows {
+        assert_eq!(r[col("outcome")], "fit", "{csv}");
+        let coeffs: usize =
+            r[col("n_p")].parse::<usize>().unwrap() + r[col("n_q")].parse::<usize>().unwrap();
+        assert!((2..=60).contains(&coeffs), "{csv}");
+        // Errors are printed to 5 decimals; the fit is verified against
+        // the intervals it reports.
+        let max_rel: f64 = r[col("max_rel")].parse().unwrap();
+        let used: f64 = r[col("rel_tol_used")].parse().unwrap();
+        assert!(max_rel <= used + 1e-5, "{csv}");
+    }
+    for d in ["2", "3"] {
+        assert!(rows.iter().filter(|r| r[col("dims")] == d).count() == 3);
+        let fit = out_dir.join(format!("fits/cm_military_green_rgb_{d}d.json"));
+        assert!(fit.is_file(), "{}", fit.display());
+    }
+    let summary = std::fs::read_to_string(out_dir.join("summary.md")).unwrap();
+    assert!(
+        summary.lines().filter(|l| l.contains("military")).count() == 2,
+        "{summary}"
+    );
+    let png = std::fs::read(out_dir.join("error_vs_time.png")).unwrap();
+    assert!(png.starts_with(b"\x89PNG"));
+}

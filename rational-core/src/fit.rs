@@ -7,7 +7,8 @@ use crate::problem::{
 use crate::report::{FitReport, PoleReport, SplitSummary};
 use crate::verify::{error_figures, verify, Verification};
 use crate::{
-    Basis, FitError, FitSettings, IntervalData, PoleControl, Progress, RationalFunction, Selection,
+    Basis, FitError, FitSettings, IntervalData, PoleControl, Progress, RationalFunction, Search,
+    Selection,
 };
 use qp_backends::{LdpProblem, Status};
 use rayon::prelude::*;
@@ -318,11 +319,12 @@ pub fn split_problem(
     prep.problem(data, n_p, n_q, &rows)
 }
 
-/// Fits `data` by the sweep: for each budget `N` from the minimum, every
-/// split `(n_p, N - n_p)` in parallel; the first budget with an accepted
-/// split wins and the settings' criterion picks among its splits. If no
-/// budget up to the maximum works, the intervals are widened (if allowed)
-/// and the sweep restarts. The returned fit is verified in f64.
+/// Fits `data` by the sweep: by default, for each budget `N` from the
+/// minimum, every split `(n_p, N - n_p)` in parallel; the first budget with
+/// an accepted split wins and the settings' criterion picks among its
+/// splits ([`Search::Staircase`] finds the same splits with far fewer
+/// solves). If no budget up to the maximum works, the intervals are widened
+/// (if allowed) and the sweep restarts. The returned fit is verified in f64.
 ///
 /// # Errors
 /// Invalid data or settings, too few samples, backend errors, or
@@ -347,67 +349,34 @@ pub fn fit_with_constraints(
     let mut current = data.clone();
     let mut summaries = Vec::new();
     for widenings in 0..=settings.max_widenings {
-        for n in settings.min_coeffs..=max_n {
-            let splits: Vec<(usize, usize)> = (1..n).map(|np| (np, n - np)).collect();
-            let done = AtomicUsize::new(0);
-            let total = splits.len();
-            let fits: Vec<SplitFit> = splits
-                .par_iter()
-                .map(|&(np, nq)| {
-                    let r = prep.solve(&current, np, nq, want_condition);
-                    let k = done.fetch_add(1, Ordering::Relaxed) + 1;
-                    if let Some(cb) = &settings.progress {
-                        cb(Progress {
-                            budget: n,
-                            done: k,
-                            total,
-                        });
-                    }
-                    r
-                })
-                .collect::<Result<_, _>>()?;
-            summaries.extend(fits.iter().map(|f| f.summary.clone()));
-            let best =
-                fits.into_iter()
-                    .filter(|f| f.summary.accepted)
-                    .min_by(|a, b| match settings.selection {
-                        Selection::ConditionNumber => {
-                            let ka = a
-                                .summary
-                                .condition_number
-                                .filter(|v| !v.is_nan())
-                                .unwrap_or(f64::INFINITY);
-                            let kb = b
-                                .summary
-                                .condition_number
-                                .filter(|v| !v.is_nan())
-                                .unwrap_or(f64::INFINITY);
-                            ka.total_cmp(&kb)
-                        }
-                        Selection::Depth => b.summary.depth.total_cmp(&a.summary.depth),
-                    });
-            if let Some(best) = best {
-                let function = best.function.expect("accepted splits carry a function");
-                let errors = error_figures(&function, &current);
-                return Ok(FitReport {
-                    n_p: best.summary.n_p,
-                    n_q: best.summary.n_q,
-                    depth: best.summary.depth,
-                    condition_number: best.summary.condition_number,
-                    errors,
-                    verification: best.verification.expect("accepted splits are verified"),
-                    poles: best.poles,
-                    seconds: start.elapsed().as_secs_f64(),
-                    samples: data.len(),
-                    splits_tried: summaries.len(),
-                    widenings,
-                    interval_scale: settings.widen_factor.powi(widenings as i32),
-                    backend: settings.backend.name().to_string(),
-                    selection: settings.selection,
-                    splits: summaries,
-                    function,
-                });
+        let candidates = match settings.search {
+            Search::Exhaustive => {
+                exhaustive(&prep, &current, max_n, want_condition, &mut summaries)?
             }
+            Search::Staircase => staircase(&prep, &current, max_n, want_condition, &mut summaries)?,
+        };
+        if let Some(best) = select(candidates, settings.selection) {
+            let function = best.function.expect("accepted splits carry a function");
+            let errors = error_figures(&function, &current);
+            return Ok(FitReport {
+                n_p: best.summary.n_p,
+                n_q: best.summary.n_q,
+                depth: best.summary.depth,
+                condition_number: best.summary.condition_number,
+                errors,
+                verification: best.verification.expect("accepted splits are verified"),
+                poles: best.poles,
+                seconds: start.elapsed().as_secs_f64(),
+                samples: data.len(),
+                splits_tried: summaries.len(),
+                widenings,
+                interval_scale: settings.widen_factor.powi(widenings as i32),
+                backend: settings.backend.name().to_string(),
+                selection: settings.selection,
+                search: settings.search,
+                splits: summaries,
+                function,
+            });
         }
         if widenings < settings.max_widenings {
             current = current.widened(settings.widen_factor);
@@ -418,4 +387,161 @@ pub fn fit_with_constraints(
         widenings: settings.max_widenings,
         factor: settings.widen_factor,
     })
+}
+
+/// The settings' criterion among accepted splits of one budget.
+fn select(candidates: Vec<SplitFit>, selection: Selection) -> Option<SplitFit> {
+    candidates
+        .into_iter()
+        .filter(|f| f.summary.accepted)
+        .min_by(|a, b| match selection {
+            Selection::ConditionNumber => {
+                let key = |f: &SplitFit| {
+                    f.summary
+                        .condition_number
+                        .filter(|v| !v.is_nan())
+                        .unwrap_or(f64::INFINITY)
+                };
+                key(a).total_cmp(&key(b))
+            }
+            Selection::Depth => b.summary.depth.total_cmp(&a.summary.depth),
+        })
+}
+
+/// Every split of each budget from the smallest up, a budget's splits in
+/// parallel; returns the splits of the first budget with an accepted one
+/// (empty when none up to `max_n` is).
+fn exhaustive(
+    prep: &Prepared<'_>,
+    data: &IntervalData,
+    max_n: usize,
+    want_condition: bool,
+    summaries: &mut Vec<SplitSummary>,
+) -> Result<Vec<SplitFit>, FitError> {
+    let settings = prep.settings;
+    for n in settings.min_coeffs..=max_n {
+        let splits: Vec<(usize, usize)> = (1..n).map(|np| (np, n - np)).collect();
+        let done = AtomicUsize::new(0);
+        let total = splits.len();
+        let fits: Vec<SplitFit> = splits
+            .par_iter()
+            .map(|&(np, nq)| {
+                let r = prep.solve(data, np, nq, want_condition);
+                let k = done.fetch_add(1, Ordering::Relaxed) + 1;
+                if let Some(cb) = &settings.progress {
+                    cb(Progress {
+                        budget: n,
+                        done: k,
+                        total,
+                    });
+                }
+                r
+            })
+            .collect::<Result<_, _>>()?;
+        summaries.extend(fits.iter().map(|f| f.summary.clone()));
+        if fits.iter().any(|f| f.summary.accepted) {
+            return Ok(fits);
+        }
+    }
+    Ok(Vec::new())
+}
+
+/// The staircase search ([`Search::Staircase`]) under budget limits that
+/// double from `max(2 min, 8)` up to `max_n`, so small answers cost small
+/// solves; a limit that finds nothing proves every split within it
+/// infeasible. Returns the accepted splits of the smallest budget found.
+fn staircase(
+    prep: &Prepared<'_>,
+    data: &IntervalData,
+    max_n: usize,
+    want_condition: bool,
+    summaries: &mut Vec<SplitSummary>,
+) -> Result<Vec<SplitFit>, FitError> {
+    let mut limit = (2 * prep.settings.min_coeffs).max(8).min(max_n);
+    let mut infeasible_up_to = 0;
+    loop {
+        let found = staircase_within(
+            prep,
+            data,
+            limit,
+            infeasible_up_to,
+            want_condition,
+            summaries,
+        )?;
+        if !found.is_empty() || limit == max_n {
+            return Ok(found);
+        }
+        infeasible_up_to = limit;
+        limit = (2 * limit).min(max_n);
+    }
+}
+
+/// One staircase walk over the splits with `n_p + n_q <= limit`, knowing
+/// those with `n_p + n_q <= infeasible_up_to` infeasible: for `n_q = 1, 2,
+/// ...` the smallest accepted `n_p` by bisection, below both the previous
+/// column's (nested bases) and the best budget so far.
+fn staircase_within(
+    prep: &Prepared<'_>,
+    data: &IntervalData,
+    limit: usize,
+    infeasible_up_to: usize,
+    want_condition: bool,
+    summaries: &mut Vec<SplitSummary>,
+) -> Result<Vec<SplitFit>, FitError> {
+    let settings = prep.settings;
+    let mut best_budget = limit;
+    let mut best: Vec<SplitFit> = Vec::new();
+    // Smallest accepted n_p of the last column that had one.
+    let mut p_bound = limit - 1;
+    let mut solve = |np: usize, nq: usize| -> Result<SplitFit, FitError> {
+        let f = prep.solve(data, np, nq, want_condition)?;
+        summaries.push(f.summary.clone());
+        if let Some(cb) = &settings.progress {
+            cb(Progress {
+                budget: np + nq,
+                done: nq,
+                total: limit - 1,
+            });
+        }
+        Ok(f)
+    };
+    for nq in 1..limit {
+        if nq >= best_budget {
+            break;
+        }
+        let hi = p_bound.min(best_budget - nq);
+        let lo = settings
+            .min_coeffs
+            .max(infeasible_up_to + 1)
+            .saturating_sub(nq)
+            .max(1);
+        if hi < lo {
+            continue;
+        }
+        let top = solve(hi, nq)?;
+        if !top.summary.accepted {
+            continue;
+        }
+        // Invariant: `found` is accepted at n_p = b; below `a` none is.
+        let (mut a, mut b, mut found) = (lo, hi, top);
+        while a < b {
+            let mid = a + (b - a) / 2;
+            let f = solve(mid, nq)?;
+            if f.summary.accepted {
+                b = mid;
+                found = f;
+            } else {
+                a = mid + 1;
+            }
+        }
+        p_bound = b;
+        let budget = b + nq;
+        if best.is_empty() || budget < best_budget {
+            best_budget = budget;
+            best = vec![found];
+        } else if budget == best_budget {
+            best.push(found);
+        }
+    }
+    Ok(best)
 }

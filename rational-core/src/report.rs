@@ -2,7 +2,7 @@
 //! sweep cost.
 
 use crate::verify::{ErrorFigures, Verification};
-use crate::{PoleControl, RationalFunction, Selection};
+use crate::{PoleControl, RationalFunction, Search, Selection};
 use qp_backends::Status;
 use serde::{Deserialize, Serialize};
 use std::fmt;
@@ -76,6 +76,9 @@ pub struct FitReport {
     pub backend: String,
     /// Selection criterion.
     pub selection: Selection,
+    /// How the splits were visited.
+    #[serde(default)]
+    pub search: Search,
     /// Every split solved, in order.
     pub splits: Vec<SplitSummary>,
 }
@@ -132,8 +135,14 @@ impl fmt::Display for FitReport {
         }
         write!(
             f,
-            "  splits tried        {} ({} backend), wall time {:.3} s",
-            self.splits_tried, self.backend, self.seconds
+            "  splits tried        {} ({} backend, {} search), wall time {:.3} s",
+            self.splits_tried,
+            self.backend,
+            match self.search {
+                Search::Exhaustive => "exhaustive",
+                Search::Staircase => "staircase",
+            },
+            self.seconds
         )
     }
 }

@@ -32,7 +32,44 @@ impl std::str::FromStr for Selection {
     }
 }
 
-/// Progress of a sweep: `done` of `total` splits of `budget` coefficients.
+/// How the sweep visits the splits `(n_p, n_q)`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum Search {
+    /// Every split of every budget from the smallest up, the budget's splits
+    /// in parallel (the paper's sweep): about `N^2 / 2` solves up to budget
+    /// `N`.
+    #[default]
+    Exhaustive,
+    /// The staircase of the feasible set. Adding a basis function never
+    /// removes a solution (the graded bases are nested), so the smallest
+    /// feasible `n_p` does not grow with `n_q`; walking `n_q` up with a
+    /// bisection on `n_p` below the best budget so far finds every feasible
+    /// split of the smallest budget, the splits the exhaustive sweep
+    /// chooses among, in about `N log N` solves at most. Splits rejected
+    /// for poles or failed verification count as infeasible, so where such
+    /// a rejection breaks the nesting the staircase may stop at a larger
+    /// budget than the exhaustive sweep.
+    Staircase,
+}
+
+impl std::str::FromStr for Search {
+    type Err = FitError;
+    fn from_str(s: &str) -> Result<Self, FitError> {
+        match s {
+            "exhaustive" | "all" => Ok(Self::Exhaustive),
+            "staircase" => Ok(Self::Staircase),
+            _ => Err(FitError::InvalidSetting {
+                name: "search",
+                reason: format!("unknown `{s}` (exhaustive, staircase)"),
+            }),
+        }
+    }
+}
+
+/// Progress of a sweep: `done` of `total` splits of `budget` coefficients
+/// (a staircase search reports the split's budget and its solves so far
+/// against its bound on the number of solves).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Progress {
     /// Coefficient budget being swept.
@@ -54,6 +91,7 @@ pub struct FitSettings {
     pub(crate) min_coeffs: usize,
     pub(crate) max_coeffs: usize,
     pub(crate) selection: Selection,
+    pub(crate) search: Search,
     pub(crate) backend: Backend,
     pub(crate) solve_options: SolveOptions,
     pub(crate) widen_factor: f64,
@@ -71,6 +109,7 @@ impl std::fmt::Debug for FitSettings {
             .field("min_coeffs", &self.min_coeffs)
             .field("max_coeffs", &self.max_coeffs)
             .field("selection", &self.selection)
+            .field("search", &self.search)
             .field("backend", &self.backend)
             .field("widen_factor", &self.widen_factor)
             .field("max_widenings", &self.max_widenings)
@@ -82,7 +121,7 @@ impl std::fmt::Debug for FitSettings {
 
 impl Default for FitSettings {
     /// Chebyshev basis on the data's bounding box, budgets 2 to 40,
-    /// condition-number selection, native backend, dense-grid pole check,
+    /// condition-number selection, exhaustive search, native backend, dense-grid pole check,
     /// no widening.
     fn default() -> Self {
         Self {
@@ -91,6 +130,7 @@ impl Default for FitSettings {
             min_coeffs: 2,
             max_coeffs: 40,
             selection: Selection::ConditionNumber,
+            search: Search::Exhaustive,
             backend: Backend::Native,
             solve_options: SolveOptions::default(),
             widen_factor: 2.0,
@@ -147,6 +187,12 @@ impl FitSettings {
     /// Selection criterion among feasible splits.
     pub fn with_selection(mut self, selection: Selection) -> Self {
         self.selection = selection;
+        self
+    }
+
+    /// How the splits are visited.
+    pub fn with_search(mut self, search: Search) -> Self {
+        self.search = search;
         self
     }
 

@@ -3,9 +3,10 @@
 //! coordinate mapped to [-1, 1] by the data's range, intervals
 //! `[v (1 - t), v (1 + t)]`): the smallest budget with a feasible split, the
 //! feasible splits there and their depths (given to two digits). A sweep that
-//! reports a larger budget has a solver or tolerance bug.
+//! reports a larger budget has a solver or tolerance bug. Both searches
+//! must find exactly the listed splits.
 
-use rational_core::{fit, FitSettings, IntervalData, PoleControl, Selection};
+use rational_core::{fit, FitSettings, IntervalData, PoleControl, Search, Selection};
 use std::path::PathBuf;
 
 fn data_dir() -> Option<PathBuf> {
@@ -40,10 +41,25 @@ fn settings() -> FitSettings {
         .unwrap()
 }
 
-/// Checks the minimal budget, and that exactly the listed splits are
-/// feasible there with the listed depths (2 significant digits).
+/// Checks, for both searches, the minimal budget, and that exactly the
+/// listed splits are feasible there with the listed depths (2 significant
+/// digits).
 fn check(name: &str, data: &IntervalData, smallest: usize, feasible: &[(usize, usize, f64)]) {
-    let report = fit(data, &settings()).unwrap_or_else(|e| panic!("{name}: {e}"));
+    for search in [Search::Exhaustive, Search::Staircase] {
+        check_search(name, data, smallest, feasible, search);
+    }
+}
+
+fn check_search(
+    name: &str,
+    data: &IntervalData,
+    smallest: usize,
+    feasible: &[(usize, usize, f64)],
+    search: Search,
+) {
+    let name = &format!("{name} ({search:?})");
+    let report =
+        fit(data, &settings().with_search(search)).unwrap_or_else(|e| panic!("{name}: {e}"));
     assert_eq!(report.n_p + report.n_q, smallest, "{name}: smallest budget");
     assert!(report.verification.satisfied, "{name}");
     assert!(
@@ -76,8 +92,8 @@ fn check(name: &str, data: &IntervalData, smallest: usize, feasible: &[(usize, u
         }
     }
     eprintln!(
-        "{name}: N = {smallest}, chosen ({}, {}), depth {:.3e}, {:.3} s",
-        report.n_p, report.n_q, report.depth, report.seconds
+        "{name}: N = {smallest}, chosen ({}, {}), depth {:.3e}, {} splits, {:.3} s",
+        report.n_p, report.n_q, report.depth, report.splits_tried, report.seconds
     );
 }
 

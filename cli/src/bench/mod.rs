@@ -9,6 +9,7 @@ mod instances;
 mod paper;
 mod render;
 mod results;
+mod rgl;
 mod run;
 mod summary;
 
@@ -38,6 +39,9 @@ enum BenchWhat {
     /// The paper's rendering experiments on the example scenes: sphere data
     /// against fit, sampler variance, global illumination, frames per second.
     Paper(paper::PaperArgs),
+    /// Every RGL `.bsdf` file fitted in 2-D and 3-D: coefficients, bytes,
+    /// interval width used, errors and fit time per channel.
+    Rgl(rgl::RglBenchArgs),
     /// Frames per second and evaluations per second of fitted materials on
     /// the GPU against the CPU (a build with `--features gpu`).
     Gpu(gpu::GpuBenchArgs),
@@ -81,6 +85,7 @@ pub fn run_bench(args: BenchArgs) -> Result<()> {
         BenchWhat::Render(a) => render::run(a),
         BenchWhat::Paper(a) => paper::run(a),
         BenchWhat::Gpu(a) => gpu::run(a),
+        BenchWhat::Rgl(a) => rgl::run(a),
         BenchWhat::Check { dir, backends } => {
             let names: Vec<&str> = backends
                 .unwrap_or_else(Backend::available)

@@ -1,0 +1,168 @@
+//! The staircase search finds what the exhaustive sweep finds (the smallest
+//! budget, its accepted splits and the chosen one) with fewer solves, and
+//! keeps the sweep's outcomes: infeasible problems, widening, the smallest
+//! budget allowed.
+
+use rational_core::{fit, FitError, FitReport, FitSettings, IntervalData, Search};
+use std::collections::BTreeSet;
+
+fn grid_1d(n: usize, f: impl Fn(f64) -> f64, rel: f64) -> IntervalData {
+    let x: Vec<f64> = (0..n).map(|i| i as f64 / (n - 1) as f64).collect();
+    let v = x.iter().map(|&x| f(x)).collect();
+    IntervalData::from_values_relative(1, x, v, rel).unwrap()
+}
+
+fn grid_2d(n: usize, f: impl Fn(f64, f64) -> f64, rel: f64) -> IntervalData {
+    let mut pts = Vec::new();
+    let mut v = Vec::new();
+    for i in 0..n {
+        for j in 0..n {
+            let (x, y) = (i as f64 / (n - 1) as f64, j as f64 / (n - 1) as f64);
+            pts.extend([x, y]);
+            v.push(f(x, y));
+        }
+    }
+    IntervalData::from_values_relative(2, pts, v, rel).unwrap()
+}
+
+/// Accepted splits at the chosen budget.
+fn accepted_at_budget(r: &FitReport) -> BTreeSet<(usize, usize)> {
+    let n = r.n_p + r.n_q;
+    r.splits
+        .iter()
+        .filter(|s| s.accepted && s.n_p + s.n_q == n)
+        .map(|s| (s.n_p, s.n_q))
+        .collect()
+}
+
+fn both(name: &str, data: &IntervalData, settings: FitSettings) -> (FitReport, FitReport) {
+    let all = fit(data, &settings.clone().with_search(Search::Exhaustive))
+        .unwrap_or_else(|e| panic!("{name} exhaustive: {e}"));
+    let stair = fit(data, &settings.with_search(Search::Staircase))
+        .unwrap_or_else(|e| panic!("{name} staircase: {e}"));
+    eprintln!(
+        "{name}: N = {}, chosen ({}, {}); exhaustive {} splits in {:.3} s, staircase {} in {:.3} s",
+        all.n_p + all.n_q,
+        all.n_p,
+        all.n_q,
+        all.splits_tried,
+        all.seconds,
+        stair.splits_tried,
+        stair.seconds
+    );
+    assert_eq!(
+        accepted_at_budget(&stair),
+        accepted_at_budget(&all),
+        "{name}: accepted splits at the smallest budget"
+    );
+    assert_eq!(
+        (stair.n_p, stair.n_q),
+        (all.n_p, all.n_q),
+        "{name}: chosen split"
+    );
+    assert!(stair.verification.satisfied, "{name}");
+    assert_eq!(stair.search, Search::Staircase);
+    (all, stair)
+}
+
+#[test]
+fn staircase_finds_the_exhaustive_answer_with_fewer_solves() {
+    let settings = FitSettings::default().with_coeff_range(2, 40).unwrap();
+    let cases: Vec<(&str, IntervalData)> = vec![
+        (
+            "runge 1%",
+            grid_1d(400, |x| 1.0 / (1.0 + 25.0 * (2.0 * x - 1.0).powi(2)), 0.01),
+        ),
+        (
+            "oscillation 1e-3",
+            grid_1d(300, |x| (9.0 * x).sin() + 1.5, 1e-3),
+        ),
+        (
+            "faster oscillation 1e-4",
+            grid_1d(500, |x| (25.0 * x).sin() + 1.5, 1e-4),
+        ),
+        (
+            "lobe plus base",
+            grid_1d(300, |x| 0.05 + 1.0 / (1e-3 + x * x), 0.05),
+        ),
+        (
+            "2-d lobe 5%",
+            grid_2d(30, |x, y| 0.1 + (1.0 + y) / (0.02 + x * x), 0.05),
+        ),
+        (
+            "2-d smooth 1%",
+            grid_2d(25, |x, y| (2.0 * x + y).cos() + 2.0 + x * y, 0.01),
+        ),
+    ];
+    for (name, data) in &cases {
+        let (all, stair) = both(name, data, settings.clone());
+        // Below budget 8 the sweep solves at most 28 splits and the
+        // staircase can need a few more; from budget 10 it must need fewer.
+        if all.n_p + all.n_q >= 10 {
+            assert!(
+                stair.splits_tried < all.splits_tried,
+                "{name}: staircase {} splits, exhaustive {}",
+                stair.splits_tried,
+                all.splits_tried
+            );
+        }
+    }
+}
+
+#[test]
+fn staircase_respects_the_smallest_budget() {
+    let data = grid_1d(200, |x| 1.0 / (1.0 + 25.0 * (2.0 * x - 1.0).powi(2)), 0.01);
+    let settings = FitSettings::default().with_coeff_range(7, 20).unwrap();
+    let (all, _) = both("runge from 7", &data, settings);
+    assert!(all.n_p + all.n_q >= 7);
+    let stair = fit(
+        &data,
+        &FitSettings::default()
+            .with_coeff_range(7, 20)
+            .unwrap()
+            .with_search(Search::Staircase),
+    )
+    .unwrap();
+    assert!(stair
+        .splits
+        .iter()
+        .all(|s| s.n_p + s.n_q >= 7 && s.n_p + s.n_q <= 20));
+}
+
+#[test]
+fn staircase_reports_infeasible_problems_and_widens() {
+    let conflicting = IntervalData::new(
+        1,
+        vec![0.0, 0.5, 0.5, 1.0],
+        vec![1.0, 1.0, 3.0, 1.0],
+        vec![1.1, 1.1, 3.1, 1.1],
+    )
+    .unwrap();
+    let s = FitSettings::default()
+        .with_coeff_range(2, 4)
+        .unwrap()
+        .with_search(Search::Staircase);
+    match fit(&conflicting, &s) {
+        Err(FitError::NoFeasibleFit { max_coeffs: 4, .. }) => {}
+        other => panic!("expected NoFeasibleFit, got {other:?}"),
+    }
+    let tight = grid_1d(200, |x| (8.0 * x).sin() + 2.0, 1e-4);
+    let strict = FitSettings::default()
+        .with_coeff_range(2, 5)
+        .unwrap()
+        .with_search(Search::Staircase);
+    assert!(fit(&tight, &strict).is_err());
+    let report = fit(&tight, &strict.with_widening(10.0, 4).unwrap()).unwrap();
+    assert!(report.widenings > 0);
+    assert!(report.verification.satisfied);
+}
+
+#[test]
+fn search_names_parse() {
+    assert_eq!("staircase".parse::<Search>().unwrap(), Search::Staircase);
+    assert_eq!("exhaustive".parse::<Search>().unwrap(), Search::Exhaustive);
+    assert!(matches!(
+        "spiral".parse::<Search>(),
+        Err(FitError::InvalidSetting { name: "search", .. })
+    ));
+}
