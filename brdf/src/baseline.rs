@@ -50,12 +50,22 @@ fn figures(
 }
 
 /// A polynomial with `n` coefficients (the graded basis of `family` on the
-/// data's bounding box) minimising the squared relative error.
-pub fn polynomial(data: &IntervalData, family: BasisFamily, n: usize) -> BaselineReport {
+/// data's bounding box, in the order of the degree `weights`, all 1 for
+/// total degree) minimising the squared relative error.
+///
+/// # Panics
+/// `weights` not one per coordinate in `1..=MAX_DEGREE_WEIGHT` (take them
+/// from a fitted basis).
+pub fn polynomial(
+    data: &IntervalData,
+    family: BasisFamily,
+    weights: &[u16],
+    n: usize,
+) -> BaselineReport {
     let start = Instant::now();
     let bb = data.bounding_box();
     let domain = Domain::new(bb.lower, bb.upper).expect("a bounding box is a valid domain");
-    let basis = Basis::new(family, domain, n.max(1)).expect("non-empty basis");
+    let basis = Basis::weighted(family, domain, n.max(1), weights).expect("valid weights");
     let s = data.len();
     // Design matrix weighted by 1/v: the residual is the relative error.
     let mut a = faer::Mat::<f64>::zeros(s, basis.len());

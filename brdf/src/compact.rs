@@ -19,7 +19,9 @@ pub struct CompactChannel {
     pub lower: Vec<f32>,
     /// Domain upper corner.
     pub upper: Vec<f32>,
-    /// Multi-index of each basis function (graded order).
+    /// Degree weight of each coordinate (all 1: the total-degree order).
+    pub weights: Vec<u16>,
+    /// Multi-index of each basis function ((weighted) graded order).
     pub indices: Vec<Vec<u16>>,
     /// Numerator coefficients.
     pub num: Vec<f32>,
@@ -179,6 +181,7 @@ impl CompactBrdf {
                     family: b.family(),
                     lower: b.domain().lower.iter().map(|&v| v as f32).collect(),
                     upper: b.domain().upper.iter().map(|&v| v as f32).collect(),
+                    weights: b.weights().to_vec(),
                     indices,
                     num: r.numerator().iter().map(|&v| v as f32).collect(),
                     den: r.denominator().iter().map(|&v| v as f32).collect(),
@@ -223,7 +226,10 @@ impl CompactBrdf {
             .collect()
     }
 
-    /// The compact binary form: magic `RFB1`, header, then every channel.
+    /// The compact binary form: magic `RFB1`, header (coordinates, dims,
+    /// channels, flags; `max_theta_d`), then every channel (family, `n_p`,
+    /// `n_q`, one byte per coordinate's degree weight when flag bit 0 is set,
+    /// domain and coefficients as f32). Unweighted fits leave the flags 0.
     pub fn to_bytes(&self) -> Vec<u8> {
         let mut out = b"RFB1".to_vec();
         let coords = match self.coordinates {
@@ -231,7 +237,12 @@ impl CompactBrdf {
             Coordinates::SqrtThetaH => 1,
             Coordinates::Cosines => 2,
         };
-        out.extend_from_slice(&[coords, self.dims as u8, self.channels.len() as u8, 0]);
+        let weighted = self
+            .channels
+            .iter()
+            .any(|c| c.weights.iter().any(|&w| w != 1));
+        let flags = u8::from(weighted);
+        out.extend_from_slice(&[coords, self.dims as u8, self.channels.len() as u8, flags]);
         out.extend_from_slice(&self.max_theta_d.to_le_bytes());
         for c in &self.channels {
             let fam = match c.family {
@@ -242,6 +253,10 @@ impl CompactBrdf {
             out.push(fam);
             out.extend_from_slice(&(c.num.len() as u16).to_le_bytes());
             out.extend_from_slice(&(c.den.len() as u16).to_le_bytes());
+            if weighted {
+                // Weights are at most MAX_DEGREE_WEIGHT, so one byte each.
+                out.extend(c.weights.iter().map(|&w| w as u8));
+            }
             for v in c.lower.iter().chain(&c.upper).chain(&c.num).chain(&c.den) {
                 out.extend_from_slice(&v.to_le_bytes());
             }
@@ -270,6 +285,11 @@ impl CompactBrdf {
         if !(1..=3).contains(&dims) {
             return Err(bad("dimension out of range"));
         }
+        let weighted = match b[7] {
+            0 => false,
+            1 => true,
+            _ => return Err(bad("unknown flags")),
+        };
         let max_theta_d = f32::from_le_bytes(b[8..12].try_into().expect("4 bytes"));
         let mut pos = 12;
         let mut channels = Vec::with_capacity(nch);
@@ -286,6 +306,21 @@ impl CompactBrdf {
             let n_p = u16::from_le_bytes([head[1], head[2]]) as usize;
             let n_q = u16::from_le_bytes([head[3], head[4]]) as usize;
             pos += 5;
+            let weights: Vec<u16> = if weighted {
+                let w = b
+                    .get(pos..pos + dims)
+                    .ok_or_else(|| bad("truncated degree weights"))?;
+                pos += dims;
+                w.iter().map(|&w| u16::from(w)).collect()
+            } else {
+                vec![1; dims]
+            };
+            if weights
+                .iter()
+                .any(|&w| !(1..=rational_core::MAX_DEGREE_WEIGHT).contains(&w))
+            {
+                return Err(bad("degree weight out of range"));
+            }
             let count = 2 * dims + n_p + n_q;
             let raw = b
                 .get(pos..pos + 4 * count)
@@ -295,12 +330,13 @@ impl CompactBrdf {
                 .chunks_exact(4)
                 .map(|c| f32::from_le_bytes(c.try_into().expect("4")))
                 .collect();
-            let indices = rational_core::graded_indices(dims, n_p.max(n_q));
+            let indices = rational_core::weighted_graded_indices(&weights, n_p.max(n_q));
             channels.push(CompactChannel {
                 degrees: CompactChannel::degrees_of(&indices, dims),
                 family,
                 lower: v[..dims].to_vec(),
                 upper: v[dims..2 * dims].to_vec(),
+                weights,
                 indices,
                 num: v[2 * dims..2 * dims + n_p].to_vec(),
                 den: v[2 * dims + n_p..].to_vec(),

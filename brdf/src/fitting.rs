@@ -224,6 +224,9 @@ pub struct BrdfFitReport {
     pub rel_tol: f64,
     /// Smallest half-width as a fraction of each channel's median value.
     pub noise_floor: f64,
+    /// Degree weights of the basis order (empty: the total-degree order).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub degree_weights: Vec<u16>,
     /// Per channel.
     pub channels: Vec<ChannelReport>,
     /// Total wall time, sampling included.
@@ -243,6 +246,10 @@ impl fmt::Display for BrdfFitReport {
             self.rel_tol * 100.0,
             self.noise_floor
         )?;
+        if !self.degree_weights.is_empty() {
+            let w: Vec<String> = self.degree_weights.iter().map(u16::to_string).collect();
+            writeln!(f, "  basis order: degree weights {}", w.join(","))?;
+        }
         writeln!(
             f,
             "  ch  n_p n_q  bytes  samples (>floor)  verified   max rel  mean rel  max rel*  mean rel*      RMSE   cos-RMSE    time s"
@@ -371,6 +378,13 @@ pub fn fit_samples(
         reduction: settings.reduction,
         rel_tol: settings.rel_tol,
         noise_floor: settings.noise_floor,
+        degree_weights: fitted
+            .channels
+            .first()
+            .map(|r| r.basis())
+            .filter(|b| b.is_weighted())
+            .map(|b| b.weights().to_vec())
+            .unwrap_or_default(),
         channels: reports,
         seconds: start.elapsed().as_secs_f64(),
     };
@@ -433,7 +447,12 @@ fn fit_channel(
         interval_scale: report.interval_scale,
         baselines: if s.baselines {
             vec![
-                crate::baseline::polynomial(&data, f.basis().family(), report.n_p + report.n_q),
+                crate::baseline::polynomial(
+                    &data,
+                    f.basis().family(),
+                    f.basis().weights(),
+                    report.n_p + report.n_q,
+                ),
                 crate::baseline::cook_torrance(samples, &used, c),
             ]
         } else {

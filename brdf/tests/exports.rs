@@ -30,7 +30,16 @@ fn fits() -> Vec<FittedBrdf> {
         if kind == ReductionKind::Full3d {
             r = r.with_resolution(12, 12).with_phi_resolution(10);
         }
-        let s = BrdfFitSettings::default().with_reduction(r);
+        let mut s = BrdfFitSettings::default().with_reduction(r);
+        if kind == ReductionKind::Full3d {
+            // A weighted degree order: every export must carry it.
+            let fit = rational_core::FitSettings::default()
+                .with_coeff_range(2, 60)
+                .unwrap()
+                .with_degree_weights(vec![1, 2, 2])
+                .unwrap();
+            s = s.with_fit_settings(fit);
+        }
         let (f, _) = if kind == ReductionKind::Full3d {
             fit_brdf(&b, &s).unwrap()
         } else {
@@ -103,11 +112,25 @@ fn compact_binary_round_trips() {
         let back = CompactBrdf::from_bytes(&bytes).unwrap();
         assert_eq!(back, c);
         assert_eq!(back.to_bytes(), bytes);
-        assert!(bytes.len() < 12 + 3 * (5 + 4 * (6 + 60)));
+        assert!(bytes.len() < 12 + 3 * (5 + 3 + 4 * (6 + 60)));
+        let weighted = f.channels.iter().any(|r| r.basis().is_weighted());
+        assert_eq!(bytes[7], u8::from(weighted), "flags byte");
+        if weighted {
+            assert_eq!(back.channels[0].weights, vec![1, 2, 2]);
+            // The first channel's weights follow its family, n_p and n_q.
+            let mut zero = bytes.clone();
+            zero[12 + 5] = 0;
+            let e = CompactBrdf::from_bytes(&zero).unwrap_err().to_string();
+            assert!(e.contains("degree weight"), "{e}");
+        }
         let mut cut = bytes.clone();
         cut.truncate(bytes.len() - 3);
         assert!(CompactBrdf::from_bytes(&cut).is_err());
         assert!(CompactBrdf::from_bytes(b"nope").is_err());
+        let mut flags = bytes.clone();
+        flags[7] = 0x80;
+        let e = CompactBrdf::from_bytes(&flags).unwrap_err().to_string();
+        assert!(e.contains("flags"), "{e}");
     }
 }
 

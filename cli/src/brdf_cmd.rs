@@ -60,6 +60,11 @@ pub struct FitArgs {
     /// again, at most this many times (the report names the factor used).
     #[arg(long, default_value_t = 0)]
     max_widenings: usize,
+    /// Degree weights of the basis order, one per fitting coordinate
+    /// (`theta_h,theta_d[,phi_d]`): `1,2` spends twice the degree on
+    /// `theta_h` as on `theta_d` for the same budget. Default: all 1.
+    #[arg(long, value_delimiter = ',')]
+    degree_weights: Vec<u16>,
     /// Print the report as JSON.
     #[arg(long)]
     json: bool,
@@ -130,6 +135,9 @@ pub fn run_fit(args: FitArgs) -> Result<()> {
         .with_backend(args.backend)?
         .with_pole_control(poles)
         .with_search(args.search);
+    if !args.degree_weights.is_empty() {
+        fit_settings = fit_settings.with_degree_weights(args.degree_weights.clone())?;
+    }
     if args.max_widenings > 0 {
         fit_settings = fit_settings.with_widening(2.0, args.max_widenings)?;
     }

@@ -184,6 +184,10 @@ struct FitArgs {
     /// ...at most this many times.
     #[arg(long, default_value_t = 0)]
     max_widenings: usize,
+    /// Degree weights of the basis order, one per coordinate (`1,2`: a
+    /// unit of degree in the second coordinate costs twice as much).
+    #[arg(long, value_delimiter = ',')]
+    degree_weights: Vec<u16>,
 }
 
 impl FitArgs {
@@ -203,6 +207,9 @@ impl FitArgs {
             .with_pole_control(poles);
         if self.max_widenings > 0 {
             s = s.with_widening(self.widen, self.max_widenings)?;
+        }
+        if !self.degree_weights.is_empty() {
+            s = s.with_degree_weights(self.degree_weights.clone())?;
         }
         if let Some(bar) = progress::sweep_bar() {
             s = s.with_progress(bar);

@@ -140,6 +140,21 @@ fn bad_input_gives_clear_errors() {
         .output()
         .unwrap();
     assert!(String::from_utf8_lossy(&out.stderr).contains("unknown backend"));
+
+    // Degree weights must be one per coordinate, each in 1..=16.
+    let runge = runge_csv(&dir);
+    for (weights, says) in [("1,2", "2 degree weights"), ("0", "weight 0")] {
+        let out = ratfit()
+            .arg("fit-csv")
+            .arg(&runge)
+            .args(["--rel-tol", "0.01", "--degree-weights", weights, "-o"])
+            .arg(dir.join("f.json"))
+            .output()
+            .unwrap();
+        assert!(!out.status.success());
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains(says), "{weights}: {err}");
+    }
     std::fs::remove_dir_all(dir).ok();
 }
 
@@ -211,7 +226,8 @@ fn fit_eval_export_and_plot_a_merl_file() {
     let out = ratfit()
         .arg("fit")
         .arg(&merl)
-        .args(["--format", "merl", "--resolution", "30,30", "-o"])
+        .args(["--format", "merl", "--resolution", "30,30"])
+        .args(["--degree-weights", "1,2", "-o"])
         .arg(&fit)
         .output()
         .unwrap();
@@ -220,6 +236,10 @@ fn fit_eval_export_and_plot_a_merl_file() {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
+    // The weighted order is in the report and travels with the fit.
+    assert!(String::from_utf8_lossy(&out.stdout).contains("degree weights 1,2"));
+    let json = std::fs::read_to_string(&fit).unwrap();
+    assert!(json.contains("\"degree_weights\""), "{json}");
     let dirs = dir.join("dirs.csv");
     std::fs::write(
         &dirs,

@@ -1,6 +1,8 @@
 //! Multivariate polynomial bases: tensor products of a univariate family
 //! after an affine map of every coordinate's domain to `[-1, 1]`, enumerated
-//! in graded order (total degree 0, then 1, ...).
+//! in graded order (total degree 0, then 1, ...), or in a weighted graded
+//! order where a unit of degree in coordinate `k` costs `w_k` (for data that
+//! vary much faster along some coordinates than along others).
 
 use crate::FitError;
 use serde::{Deserialize, Serialize};
@@ -182,18 +184,39 @@ impl Domain {
 /// order within each degree (first coordinate's exponent descending); the
 /// first `len` of them.
 pub fn graded_indices(dim: usize, len: usize) -> Vec<Vec<u16>> {
+    weighted_graded_indices(&vec![1; dim], len)
+}
+
+/// Largest weight [`weighted_graded_indices`] accepts.
+pub const MAX_DEGREE_WEIGHT: u16 = 16;
+
+/// Multi-indices `a` in order of weighted degree `sum_k weights[k] a[k]`
+/// (`0, 1, 2, ...`), first coordinate's exponent descending within a weighted
+/// degree; the first `len` of them. Unit weights give [`graded_indices`].
+/// Every prefix is a lower set, so the bases stay nested.
+///
+/// # Panics
+/// A weight of 0 or above [`MAX_DEGREE_WEIGHT`] (validated by the settings
+/// that carry weights).
+pub fn weighted_graded_indices(weights: &[u16], len: usize) -> Vec<Vec<u16>> {
+    assert!(
+        weights
+            .iter()
+            .all(|&w| (1..=MAX_DEGREE_WEIGHT).contains(&w)),
+        "degree weights must lie in 1..={MAX_DEGREE_WEIGHT}"
+    );
     let mut out = Vec::with_capacity(len);
-    let mut degree = 0u16;
+    let mut degree = 0u32;
     while out.len() < len {
-        push_degree(dim, degree, &mut Vec::new(), &mut out, len);
+        push_degree(weights, degree, &mut Vec::new(), &mut out, len);
         degree += 1;
     }
     out
 }
 
 fn push_degree(
-    dim: usize,
-    remaining: u16,
+    weights: &[u16],
+    remaining: u32,
     prefix: &mut Vec<u16>,
     out: &mut Vec<Vec<u16>>,
     len: usize,
@@ -201,25 +224,49 @@ fn push_degree(
     if out.len() >= len {
         return;
     }
-    if prefix.len() + 1 == dim {
-        let mut idx = prefix.clone();
-        idx.push(remaining);
-        out.push(idx);
+    let w = u32::from(weights[prefix.len()]);
+    if prefix.len() + 1 == weights.len() {
+        if remaining % w == 0 {
+            let mut idx = prefix.clone();
+            idx.push((remaining / w) as u16);
+            out.push(idx);
+        }
         return;
     }
-    for e in (0..=remaining).rev() {
-        prefix.push(e);
-        push_degree(dim, remaining - e, prefix, out, len);
+    for e in (0..=remaining / w).rev() {
+        prefix.push(e as u16);
+        push_degree(weights, remaining - e * w, prefix, out, len);
         prefix.pop();
     }
 }
 
-/// The first `len` functions of a graded tensor basis on a domain.
+/// Validates degree weights for `dim` coordinates.
+pub(crate) fn check_weights(weights: &[u16], dim: usize) -> Result<(), FitError> {
+    if weights.len() != dim {
+        return Err(FitError::DimensionMismatch(format!(
+            "{} degree weights for data of dimension {dim}",
+            weights.len()
+        )));
+    }
+    if let Some(w) = weights
+        .iter()
+        .find(|&&w| !(1..=MAX_DEGREE_WEIGHT).contains(&w))
+    {
+        return Err(FitError::InvalidSetting {
+            name: "degree weights",
+            reason: format!("weight {w} outside 1..={MAX_DEGREE_WEIGHT}"),
+        });
+    }
+    Ok(())
+}
+
+/// The first `len` functions of a (weighted) graded tensor basis on a domain.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(into = "BasisSpec", try_from = "BasisSpec")]
 pub struct Basis {
     family: BasisFamily,
     domain: Domain,
+    weights: Vec<u16>,
     indices: Vec<Vec<u16>>,
     max_degree: Vec<usize>,
 }
@@ -230,6 +277,10 @@ struct BasisSpec {
     family: BasisFamily,
     domain: Domain,
     len: usize,
+    /// Degree weights; absent means all 1 (files written before weights
+    /// existed read unchanged).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    degree_weights: Option<Vec<u16>>,
 }
 
 impl From<Basis> for BasisSpec {
@@ -237,6 +288,7 @@ impl From<Basis> for BasisSpec {
         Self {
             family: b.family,
             len: b.len(),
+            degree_weights: b.is_weighted().then(|| b.weights.clone()),
             domain: b.domain,
         }
     }
@@ -246,7 +298,10 @@ impl TryFrom<BasisSpec> for Basis {
     type Error = FitError;
     fn try_from(s: BasisSpec) -> Result<Self, FitError> {
         let d = Domain::new(s.domain.lower, s.domain.upper)?;
-        Basis::new(s.family, d, s.len)
+        match s.degree_weights {
+            Some(w) => Basis::weighted(s.family, d, s.len, &w),
+            None => Basis::new(s.family, d, s.len),
+        }
     }
 }
 
@@ -256,6 +311,23 @@ impl Basis {
     /// # Errors
     /// `len == 0` or degrees beyond 1000.
     pub fn new(family: BasisFamily, domain: Domain, len: usize) -> Result<Self, FitError> {
+        let ones = vec![1; domain.dim()];
+        Self::weighted(family, domain, len, &ones)
+    }
+
+    /// The first `len` functions of `family` on `domain` in the weighted
+    /// graded order of [`weighted_graded_indices`].
+    ///
+    /// # Errors
+    /// `len == 0`, degrees beyond 1000, or weights that are not one per
+    /// coordinate in `1..=`[`MAX_DEGREE_WEIGHT`].
+    pub fn weighted(
+        family: BasisFamily,
+        domain: Domain,
+        len: usize,
+        weights: &[u16],
+    ) -> Result<Self, FitError> {
+        check_weights(weights, domain.dim())?;
         if len == 0 {
             return Err(FitError::InvalidSetting {
                 name: "basis length",
@@ -268,16 +340,36 @@ impl Basis {
                 reason: "degree above 1000".into(),
             });
         }
-        let indices = graded_indices(domain.dim(), len);
+        let indices = weighted_graded_indices(weights, len);
         let max_degree = (0..domain.dim())
             .map(|k| indices.iter().map(|i| i[k] as usize).max().unwrap_or(0))
             .collect();
         Ok(Self {
             family,
             domain,
+            weights: weights.to_vec(),
             indices,
             max_degree,
         })
+    }
+
+    /// The same basis with its first `len` functions (`len` may exceed the
+    /// current length: the order continues).
+    ///
+    /// # Errors
+    /// As [`Basis::weighted`].
+    pub fn with_len(&self, len: usize) -> Result<Self, FitError> {
+        Self::weighted(self.family, self.domain.clone(), len, &self.weights)
+    }
+
+    /// Degree weight of each coordinate (all 1 for the plain graded order).
+    pub fn weights(&self) -> &[u16] {
+        &self.weights
+    }
+
+    /// Whether some coordinate has a degree weight other than 1.
+    pub fn is_weighted(&self) -> bool {
+        self.weights.iter().any(|&w| w != 1)
     }
 
     /// Number of functions.
@@ -505,6 +597,68 @@ mod tests {
             ]
         );
         assert_eq!(graded_indices(3, 10).len(), 10);
+    }
+
+    #[test]
+    fn weighted_order_spends_degree_where_it_is_cheap() {
+        // Weighted degrees 0, 1, 2, 2, 3, 3, 4, 4, 4 with weights (1, 2).
+        assert_eq!(
+            weighted_graded_indices(&[1, 2], 9),
+            vec![
+                vec![0, 0],
+                vec![1, 0],
+                vec![2, 0],
+                vec![0, 1],
+                vec![3, 0],
+                vec![1, 1],
+                vec![4, 0],
+                vec![2, 1],
+                vec![0, 2]
+            ]
+        );
+        assert_eq!(
+            weighted_graded_indices(&[1, 1, 1], 35),
+            graded_indices(3, 35)
+        );
+        // Every prefix is a lower set: lowering any exponent gives an earlier index.
+        let idx = weighted_graded_indices(&[1, 3, 2], 80);
+        for (j, a) in idx.iter().enumerate() {
+            for k in 0..3 {
+                if a[k] > 0 {
+                    let mut b = a.clone();
+                    b[k] -= 1;
+                    let pos = idx.iter().position(|c| *c == b).expect("lower set");
+                    assert!(pos < j);
+                }
+            }
+        }
+        let mut sorted = idx.clone();
+        sorted.sort();
+        sorted.dedup();
+        assert_eq!(sorted.len(), idx.len(), "no index twice");
+    }
+
+    #[test]
+    fn weighted_basis_round_trips_and_checks_its_weights() {
+        let d = Domain::new(vec![0.0, -1.0], vec![1.0, 2.0]).unwrap();
+        let b = Basis::weighted(BasisFamily::Chebyshev, d.clone(), 12, &[1, 3]).unwrap();
+        assert!(b.is_weighted());
+        assert_eq!(b.degree_in(0, 12), 6);
+        assert_eq!(b.degree_in(1, 12), 2);
+        let json = serde_json::to_string(&b).unwrap();
+        assert!(json.contains("degree_weights"));
+        let back: Basis = serde_json::from_str(&json).unwrap();
+        assert_eq!(back, b);
+        assert_eq!(b.with_len(5).unwrap().multi_index(4), b.multi_index(4));
+        // Unweighted bases serialise as before weights existed.
+        let plain = Basis::new(BasisFamily::Chebyshev, d.clone(), 6).unwrap();
+        let json = serde_json::to_string(&plain).unwrap();
+        assert!(!json.contains("degree_weights"), "{json}");
+        assert_eq!(serde_json::from_str::<Basis>(&json).unwrap(), plain);
+        for bad in [vec![1], vec![0, 1], vec![1, MAX_DEGREE_WEIGHT + 1]] {
+            let err = Basis::weighted(BasisFamily::Chebyshev, d.clone(), 4, &bad).unwrap_err();
+            assert!(err.to_string().contains("weight"), "{err}");
+        }
     }
 
     #[test]

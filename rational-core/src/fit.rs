@@ -61,7 +61,10 @@ impl<'a> Prepared<'a> {
             Some(d) => d.clone(),
             None => data.bounding_box(),
         };
-        let basis = Basis::new(settings.family, domain, len)?;
+        let basis = match &settings.degree_weights {
+            Some(w) => Basis::weighted(settings.family, domain, len, w)?,
+            None => Basis::new(settings.family, domain, len)?,
+        };
         let design = DesignMatrix::new(&basis, data);
         let scale = if settings.value_scaling {
             data.value_scale()
@@ -128,11 +131,7 @@ impl<'a> Prepared<'a> {
     ) -> Result<SplitFit, FitError> {
         let start = Instant::now();
         let mut rows = self.base_rows(n_p, n_q);
-        let split_basis = Basis::new(
-            self.basis.family(),
-            self.basis.domain().clone(),
-            n_p.max(n_q),
-        )?;
+        let split_basis = self.basis.with_len(n_p.max(n_q))?;
         let mut summary = SplitSummary {
             n_p,
             n_q,

@@ -39,7 +39,9 @@ mod report;
 mod settings;
 pub mod verify;
 
-pub use basis::{graded_indices, Basis, BasisFamily, Domain};
+pub use basis::{
+    graded_indices, weighted_graded_indices, Basis, BasisFamily, Domain, MAX_DEGREE_WEIGHT,
+};
 pub use data::IntervalData;
 pub use error::FitError;
 pub use fit::{

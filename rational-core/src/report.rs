@@ -94,6 +94,11 @@ impl fmt::Display for FitReport {
             self.n_p + self.n_q,
             self.function.byte_size_f32()
         )?;
+        let basis = self.function.basis();
+        if basis.is_weighted() {
+            let w: Vec<String> = basis.weights().iter().map(u16::to_string).collect();
+            writeln!(f, "  degree weights      {}", w.join(","))?;
+        }
         writeln!(f, "  samples             {}", self.samples)?;
         writeln!(
             f,

@@ -87,6 +87,7 @@ pub type ProgressFn = Arc<dyn Fn(Progress) + Send + Sync>;
 #[derive(Clone)]
 pub struct FitSettings {
     pub(crate) family: BasisFamily,
+    pub(crate) degree_weights: Option<Vec<u16>>,
     pub(crate) domain: Option<Domain>,
     pub(crate) min_coeffs: usize,
     pub(crate) max_coeffs: usize,
@@ -105,6 +106,7 @@ impl std::fmt::Debug for FitSettings {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("FitSettings")
             .field("family", &self.family)
+            .field("degree_weights", &self.degree_weights)
             .field("domain", &self.domain)
             .field("min_coeffs", &self.min_coeffs)
             .field("max_coeffs", &self.max_coeffs)
@@ -126,6 +128,7 @@ impl Default for FitSettings {
     fn default() -> Self {
         Self {
             family: BasisFamily::Chebyshev,
+            degree_weights: None,
             domain: None,
             min_coeffs: 2,
             max_coeffs: 40,
@@ -154,6 +157,24 @@ impl FitSettings {
     pub fn with_family(mut self, family: BasisFamily) -> Self {
         self.family = family;
         self
+    }
+
+    /// Degree weights of a weighted graded order (one per coordinate, each
+    /// in `1..=`[`crate::MAX_DEGREE_WEIGHT`]): a unit of degree in coordinate
+    /// `k` costs `weights[k]`, so `[1, 2]` reaches twice the degree in the
+    /// first coordinate as in the second for the same budget. Default: all 1,
+    /// the total-degree order. Their count is checked against the data's
+    /// dimension when fitting.
+    ///
+    /// # Errors
+    /// No weights, or a weight outside `1..=MAX_DEGREE_WEIGHT`.
+    pub fn with_degree_weights(mut self, weights: Vec<u16>) -> Result<Self, FitError> {
+        if weights.is_empty() {
+            return Err(invalid("degree weights", "give one weight per coordinate"));
+        }
+        crate::basis::check_weights(&weights, weights.len())?;
+        self.degree_weights = Some(weights);
+        Ok(self)
     }
 
     /// Domain box mapped to `[-1, 1]^d` (default: the data's bounding box).

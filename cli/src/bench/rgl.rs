@@ -42,6 +42,10 @@ pub struct RglBenchArgs {
     /// Bins per angle of the 3-D grid (`theta_h`, `theta_d`, `phi_d`).
     #[arg(long, default_value_t = 24)]
     resolution_3d: usize,
+    /// Degree weights of `theta_h, theta_d, phi_d` in the basis order (2-D
+    /// fits use the first two). Default: all 1.
+    #[arg(long, value_delimiter = ',')]
+    degree_weights: Vec<u16>,
     /// Only files whose name contains this.
     #[arg(long)]
     only: Option<String>,
@@ -96,6 +100,15 @@ fn settings(args: &RglBenchArgs, dims: usize) -> Result<BrdfFitSettings> {
     let mut fit = FitSettings::default()
         .with_coeff_range(2, args.max_coeffs)?
         .with_search(Search::Staircase);
+    if !args.degree_weights.is_empty() {
+        if args.degree_weights.len() < dims {
+            bail!(
+                "--degree-weights: {} weights for {dims}-D fits (give theta_h,theta_d,phi_d)",
+                args.degree_weights.len()
+            );
+        }
+        fit = fit.with_degree_weights(args.degree_weights[..dims].to_vec())?;
+    }
     if args.max_widenings > 0 {
         fit = fit.with_widening(2.0, args.max_widenings)?;
     }
