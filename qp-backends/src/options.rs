@@ -73,7 +73,10 @@ impl SolveOptions {
         self
     }
 
-    /// Rows added per constraint-generation pass. Default `max(2 cols, 32)`.
+    /// Rows added per constraint-generation pass. Default: `max(2 cols,
+    /// 32)`, or half the working set when that is larger, so that the
+    /// number of passes over every row grows like the logarithm of the
+    /// final working set rather than linearly (each pass reads all of `G`).
     ///
     /// # Errors
     /// Zero is refused.
@@ -108,8 +111,9 @@ impl SolveOptions {
             .unwrap_or(64.0 * cols.max(1) as f64 * f64::EPSILON)
     }
 
-    pub(crate) fn generation_batch_for(&self, cols: usize) -> usize {
-        self.generation_batch.unwrap_or((2 * cols).max(32))
+    pub(crate) fn generation_batch_for(&self, cols: usize, working_set: usize) -> usize {
+        self.generation_batch
+            .unwrap_or((2 * cols).max(32).max(working_set / 2))
     }
 }
 

@@ -55,6 +55,12 @@ impl LdpProblem {
         Ok(Self { rows, cols, g, h })
     }
 
+    /// Gives back `G` (row-major) and `h`, for example to reuse their
+    /// storage for the next problem.
+    pub fn into_parts(self) -> (Vec<f64>, Vec<f64>) {
+        (self.g, self.h)
+    }
+
     /// Builds a problem from a slice of rows.
     ///
     /// # Errors

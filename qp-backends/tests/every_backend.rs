@@ -305,6 +305,72 @@ fn constraint_generation_matches_full_solve() {
     assert!(warm.iterations <= gen.iterations);
 }
 
+/// Solves the symmetric positive definite system `a y = b` (Cholesky).
+fn spd_solve(mut a: Vec<Vec<f64>>, mut b: Vec<f64>) -> Vec<f64> {
+    let q = b.len();
+    for k in 0..q {
+        a[k][k] = (a[k][k] - (0..k).map(|j| a[k][j] * a[k][j]).sum::<f64>()).sqrt();
+        for i in k + 1..q {
+            a[i][k] = (a[i][k] - (0..k).map(|j| a[i][j] * a[k][j]).sum::<f64>()) / a[k][k];
+        }
+    }
+    for i in 0..q {
+        b[i] = (b[i] - (0..i).map(|j| a[i][j] * b[j]).sum::<f64>()) / a[i][i];
+    }
+    for i in (0..q).rev() {
+        b[i] = (b[i] - (i + 1..q).map(|j| a[j][i] * b[j]).sum::<f64>()) / a[i][i];
+    }
+    b
+}
+
+#[test]
+fn large_working_sets_reach_the_kkt_point() {
+    // 20,000 rows in 24 variables: working sets this large are priced
+    // partially (only the rows closest to violation between full passes).
+    // The answer must still be the optimum: x = G_A^T u with u >= 0 and the
+    // active rows tight, computed here independently of the solver.
+    let (m, n) = (20_000usize, 24usize);
+    let mut state = 0x9e37_79b9_7f4a_7c15_u64;
+    let mut next = move || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+    };
+    let rows: Vec<Vec<f64>> = (0..m)
+        .map(|_| {
+            let mut r: Vec<f64> = (0..n).map(|_| next()).collect();
+            r[0] = 0.2 + r[0].abs(); // x = t e_0 is feasible for large t
+            r
+        })
+        .collect();
+    let h: Vec<f64> = (0..m).map(|_| 1.0 + next()).collect();
+    let p = LdpProblem::from_rows(&rows, h.clone()).unwrap();
+    for options in [
+        SolveOptions::default().with_working_set_threshold(usize::MAX),
+        SolveOptions::default(),
+    ] {
+        let s = Backend::Native.solve(&p, &options).unwrap();
+        assert!(s.is_verified(), "{:?}", s.status);
+        let a = &s.active_set;
+        assert!(!a.is_empty() && a.len() <= n);
+        let gram: Vec<Vec<f64>> = a
+            .iter()
+            .map(|&i| a.iter().map(|&j| dot(&rows[i], &rows[j])).collect())
+            .collect();
+        let u = spd_solve(gram, a.iter().map(|&i| h[i]).collect());
+        assert!(u.iter().all(|&v| v > 0.0), "multipliers {u:?}");
+        let kkt: Vec<f64> = (0..n)
+            .map(|c| a.iter().zip(&u).map(|(&i, uk)| uk * rows[i][c]).sum())
+            .collect();
+        assert!(rel_err(&s.x, &kkt) < 1e-9, "{:?} vs {kkt:?}", s.x);
+    }
+}
+
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
 #[test]
 fn unknown_and_missing_backends_are_errors() {
     assert!("gurobi".parse::<Backend>().is_err());

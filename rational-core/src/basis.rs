@@ -187,6 +187,13 @@ pub fn graded_indices(dim: usize, len: usize) -> Vec<Vec<u16>> {
     weighted_graded_indices(&vec![1; dim], len)
 }
 
+/// Coordinates [`Basis::for_each_value`] maps without allocating.
+pub const STACK_DIMS: usize = 4;
+
+/// Univariate values (summed over coordinates) [`Basis::for_each_value`]
+/// keeps on the stack.
+pub const STACK_TABLE: usize = 512;
+
 /// Largest weight [`weighted_graded_indices`] accepts.
 pub const MAX_DEGREE_WEIGHT: u16 = 16;
 
@@ -413,26 +420,76 @@ impl Basis {
 
     /// Values of the first `out.len()` functions at `x` (original coordinates).
     pub fn eval_into(&self, x: &[f64], out: &mut [f64]) {
-        let t: Vec<f64> = (0..self.dim()).map(|k| self.domain.map(k, x[k])).collect();
-        self.eval_mapped_into(&t, out);
+        self.for_each_value(x, out.len(), |j, v| out[j] = v);
+    }
+
+    /// Calls `f(j, phi_j(x))` for the first `n` functions at `x` (original
+    /// coordinates). Verification evaluates every sample of every split, so
+    /// this allocates nothing for up to [`STACK_DIMS`] coordinates and
+    /// [`STACK_TABLE`] univariate values.
+    pub fn for_each_value(&self, x: &[f64], n: usize, f: impl FnMut(usize, f64)) {
+        let d = self.dim();
+        if d <= STACK_DIMS {
+            let mut t = [0.0; STACK_DIMS];
+            for (k, tk) in t[..d].iter_mut().enumerate() {
+                *tk = self.domain.map(k, x[k]);
+            }
+            self.for_each_mapped(&t[..d], n, f);
+        } else {
+            let t: Vec<f64> = (0..d).map(|k| self.domain.map(k, x[k])).collect();
+            self.for_each_mapped(&t, n, f);
+        }
     }
 
     /// As [`Basis::eval_into`] with coordinates already mapped to `[-1, 1]`.
     pub fn eval_mapped_into(&self, t: &[f64], out: &mut [f64]) {
+        self.for_each_mapped(t, out.len(), |j, v| out[j] = v);
+    }
+
+    fn for_each_mapped(&self, t: &[f64], n: usize, mut f: impl FnMut(usize, f64)) {
         let d = self.dim();
-        let n = out.len().min(self.len());
+        let n = n.min(self.len());
+        // Univariate values of every coordinate, one after the other.
+        let total: usize = self.max_degree.iter().map(|m| m + 1).sum();
+        let mut stack = [0.0; STACK_TABLE];
+        let mut heap = Vec::new();
+        let flat: &mut [f64] = if total <= STACK_TABLE {
+            &mut stack[..total]
+        } else {
+            heap.resize(total, 0.0);
+            &mut heap
+        };
+        let mut offsets = [0usize; STACK_DIMS];
+        let mut start = 0;
+        for k in 0..d {
+            let len = self.max_degree[k] + 1;
+            if k < STACK_DIMS {
+                offsets[k] = start;
+            }
+            self.family
+                .values(t[k], &mut flat[start..start + len], None);
+            start += len;
+        }
         if d == 1 {
-            self.family.values(t[0], &mut out[..n], None);
+            for (j, &v) in flat[..n].iter().enumerate() {
+                f(j, v);
+            }
             return;
         }
-        let tables = self.tables(t, false).0;
-        for (j, o) in out[..n].iter_mut().enumerate() {
+        let offset = |k: usize| -> usize {
+            if k < STACK_DIMS {
+                offsets[k]
+            } else {
+                self.max_degree[..k].iter().map(|m| m + 1).sum()
+            }
+        };
+        for j in 0..n {
             let idx = &self.indices[j];
             let mut v = 1.0;
             for k in 0..d {
-                v *= tables[k][idx[k] as usize];
+                v *= flat[offset(k) + idx[k] as usize];
             }
-            *o = v;
+            f(j, v);
         }
     }
 
@@ -519,9 +576,9 @@ impl Basis {
         if self.dim() == 1 {
             return self.combine_1d(c, self.domain.map(0, x[0]));
         }
-        let mut phi = vec![0.0; c.len()];
-        self.eval_into(x, &mut phi);
-        phi.iter().zip(c).map(|(a, b)| a * b).sum()
+        let mut sum = 0.0;
+        self.for_each_value(x, c.len(), |j, v| sum += c[j] * v);
+        sum
     }
 
     fn combine_1d(&self, c: &[f64], t: f64) -> f64 {

@@ -2,7 +2,7 @@
 
 use crate::poles::{bernstein_margin, bernstein_rows, grid_check, grid_size};
 use crate::problem::{
-    build_problem_scaled, condition_number, DesignMatrix, ExtraConstraints, NoExtraConstraints,
+    build_problem_in, condition_number, DesignMatrix, ExtraConstraints, NoExtraConstraints,
 };
 use crate::report::{FitReport, PoleReport, SplitSummary};
 use crate::verify::{error_figures, verify, Verification};
@@ -13,6 +13,7 @@ use crate::{
 use qp_backends::{LdpProblem, Status};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::Mutex;
 use std::time::Instant;
 
 /// Dense-grid rounds before a split with poles between samples is rejected.
@@ -41,6 +42,33 @@ struct Prepared<'a> {
     extra: &'a dyn ExtraConstraints,
     /// Bounds are divided by this in P(n_p, n_q); the numerator is scaled back.
     scale: f64,
+    /// Storage of solved problems' `G`, reused by the next ones.
+    spare: Mutex<Vec<Vec<f64>>>,
+}
+
+/// A problem whose `G` storage goes back to [`Prepared::spare`] when dropped.
+struct PooledProblem<'a> {
+    problem: Option<LdpProblem>,
+    spare: &'a Mutex<Vec<Vec<f64>>>,
+}
+
+impl std::ops::Deref for PooledProblem<'_> {
+    type Target = LdpProblem;
+    fn deref(&self) -> &LdpProblem {
+        self.problem.as_ref().expect("present until dropped")
+    }
+}
+
+impl Drop for PooledProblem<'_> {
+    fn drop(&mut self) {
+        if let Some(p) = self.problem.take() {
+            let mut spare = self.spare.lock().unwrap_or_else(|e| e.into_inner());
+            // One buffer per concurrent solve is all the sweep can use.
+            if spare.len() < rayon::current_num_threads() {
+                spare.push(p.into_parts().0);
+            }
+        }
+    }
 }
 
 impl<'a> Prepared<'a> {
@@ -78,6 +106,7 @@ impl<'a> Prepared<'a> {
             settings,
             extra,
             scale,
+            spare: Mutex::new(Vec::new()),
         })
     }
 
@@ -101,9 +130,19 @@ impl<'a> Prepared<'a> {
         n_p: usize,
         n_q: usize,
         rows: &[Vec<f64>],
-    ) -> Result<LdpProblem, FitError> {
+    ) -> Result<PooledProblem<'_>, FitError> {
         debug_assert_eq!(data.len(), self.data.len());
-        build_problem_scaled(&self.design, data, n_p, n_q, rows, self.scale)
+        let buffer = {
+            let mut spare = self.spare.lock().unwrap_or_else(|e| e.into_inner());
+            // The largest buffer: it needs no growing for the biggest split.
+            let largest = (0..spare.len()).max_by_key(|&k| spare[k].capacity());
+            largest.map(|k| spare.swap_remove(k)).unwrap_or_default()
+        };
+        let problem = build_problem_in(&self.design, data, n_p, n_q, rows, self.scale, buffer)?;
+        Ok(PooledProblem {
+            problem: Some(problem),
+            spare: &self.spare,
+        })
     }
 
     /// The rational function of a solution vector `(a, b)` (numerator
@@ -315,7 +354,8 @@ pub fn split_problem(
     }
     let prep = Prepared::new(data, settings, &NoExtraConstraints, n_p.max(n_q).max(1))?;
     let rows = prep.base_rows(n_p, n_q);
-    prep.problem(data, n_p, n_q, &rows)
+    let mut pooled = prep.problem(data, n_p, n_q, &rows)?;
+    Ok(pooled.problem.take().expect("just built"))
 }
 
 /// Fits `data` by the sweep: by default, for each budget `N` from the

@@ -139,36 +139,67 @@ pub fn grid_check(basis: &Basis, b: &[f64], per_dim: usize, keep: usize) -> (f64
     let d = basis.dim();
     let total = per_dim.pow(d as u32);
     let dom = basis.domain();
-    let point = |mut id: usize| -> Vec<f64> {
-        (0..d)
-            .map(|_| {
-                let i = id % per_dim;
-                id /= per_dim;
-                -1.0 + 2.0 * i as f64 / (per_dim - 1).max(1) as f64
-            })
-            .collect()
+    let grid_t = |i: usize| -1.0 + 2.0 * i as f64 / (per_dim - 1).max(1) as f64;
+    // The grid is a tensor product: the univariate values of each axis are
+    // computed once, and each grid point only multiplies table entries.
+    let widths: Vec<usize> = (0..d).map(|k| basis.degree_in(k, b.len()) + 1).collect();
+    let tables: Vec<Vec<f64>> = widths
+        .iter()
+        .map(|&m| {
+            let mut t = vec![0.0; per_dim * m];
+            for (i, row) in t.chunks_exact_mut(m).enumerate() {
+                basis.family().values(grid_t(i), row, None);
+            }
+            t
+        })
+        .collect();
+    let q_at = |at: &mut Vec<usize>, id: usize| -> f64 {
+        let mut rest = id;
+        for slot in at.iter_mut() {
+            *slot = rest % per_dim;
+            rest /= per_dim;
+        }
+        let mut q = 0.0;
+        for (j, bj) in b.iter().enumerate() {
+            let idx = basis.multi_index(j);
+            let mut v = 1.0;
+            for k in 0..d {
+                v *= tables[k][at[k] * widths[k] + idx[k] as usize];
+            }
+            q += v * bj;
+        }
+        q
     };
-    let vals: Vec<(f64, usize)> = (0..total)
+    let (min, mut bad) = (0..total)
         .into_par_iter()
-        .map_init(
-            || vec![0.0; b.len()],
-            |phi, id| {
-                let t = point(id);
-                basis.eval_mapped_into(&t, phi);
-                (phi.iter().zip(b).map(|(x, y)| x * y).sum::<f64>(), id)
+        .map_init(|| vec![0usize; d], |at, id| (q_at(at, id), id))
+        .fold(
+            || (f64::INFINITY, Vec::new()),
+            |(m, mut bad), (q, id)| {
+                if q <= 0.0 {
+                    bad.push((q, id));
+                }
+                (m.min(q), bad)
             },
         )
-        .collect();
-    let min = vals.iter().map(|v| v.0).fold(f64::INFINITY, f64::min);
-    let mut bad: Vec<(f64, usize)> = vals.into_iter().filter(|v| v.0 <= 0.0).collect();
-    bad.sort_by(|a, b| a.0.total_cmp(&b.0));
+        .reduce(
+            || (f64::INFINITY, Vec::new()),
+            |(m1, mut b1), (m2, b2)| {
+                b1.extend(b2);
+                (m1.min(m2), b1)
+            },
+        );
+    bad.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
     let pts = bad
         .into_iter()
         .take(keep)
-        .map(|(_, id)| {
-            let t = point(id);
+        .map(|(_, mut id)| {
             (0..d)
-                .map(|k| dom.lower[k] + 0.5 * (t[k] + 1.0) * (dom.upper[k] - dom.lower[k]))
+                .map(|k| {
+                    let t = grid_t(id % per_dim);
+                    id /= per_dim;
+                    dom.lower[k] + 0.5 * (t + 1.0) * (dom.upper[k] - dom.lower[k])
+                })
                 .collect()
         })
         .collect();

@@ -85,6 +85,21 @@ pub fn build_problem_scaled(
     extra: &[Vec<f64>],
     value_scale: f64,
 ) -> Result<LdpProblem, FitError> {
+    build_problem_in(design, data, n_p, n_q, extra, value_scale, Vec::new())
+}
+
+/// As [`build_problem_scaled`], writing `G` into `buffer`'s storage: the
+/// sweep reuses one allocation per thread instead of mapping fresh pages for
+/// every split (gigabytes per split on the full MERL grid).
+pub(crate) fn build_problem_in(
+    design: &DesignMatrix,
+    data: &IntervalData,
+    n_p: usize,
+    n_q: usize,
+    extra: &[Vec<f64>],
+    value_scale: f64,
+    mut buffer: Vec<f64>,
+) -> Result<LdpProblem, FitError> {
     if !(value_scale.is_finite() && value_scale > 0.0) {
         return Err(FitError::InvalidSetting {
             name: "value scale",
@@ -108,7 +123,9 @@ pub fn build_problem_scaled(
         )));
     }
     let s = data.len();
-    let mut g = vec![0.0; (2 * s + extra.len()) * n];
+    buffer.clear();
+    buffer.resize((2 * s + extra.len()) * n, 0.0);
+    let mut g = buffer;
     g[..2 * s * n]
         .par_chunks_mut(2 * n)
         .enumerate()

@@ -89,11 +89,16 @@ impl RationalFunction {
                 self.basis.combine(&self.denominator, x),
             );
         }
-        let n = self.basis.len();
-        let mut phi = vec![0.0; n];
-        self.basis.eval_into(x, &mut phi);
-        let p = phi.iter().zip(&self.numerator).map(|(a, b)| a * b).sum();
-        let q = phi.iter().zip(&self.denominator).map(|(a, b)| a * b).sum();
+        let (mut p, mut q) = (0.0, 0.0);
+        let (np, nq) = (self.numerator.len(), self.denominator.len());
+        self.basis.for_each_value(x, np.max(nq), |j, v| {
+            if j < np {
+                p += self.numerator[j] * v;
+            }
+            if j < nq {
+                q += self.denominator[j] * v;
+            }
+        });
         (p, q)
     }
 

@@ -224,27 +224,72 @@ impl DualActiveSet {
     }
 
     /// Runs the dual method until no working-set row is violated.
+    ///
+    /// Large working sets are priced partially: a full pass over the set
+    /// keeps the rows closest to violation as candidates, and the following
+    /// iterations price only those; when no candidate is violated a full pass
+    /// decides between convergence and new candidates. Any violated row is a
+    /// valid next row for the dual method, so the optimum is the same; small
+    /// sets are priced in full every iteration.
     fn solve(&mut self, ws: &WorkingSet, is_active: &mut Vec<bool>) -> InnerEnd {
         let tol = rounding_tolerance(self.n);
         is_active.resize(ws.len(), false);
+        let keep = (4 * self.n).max(256);
+        let partial = ws.len() > 4 * keep;
+        let mut candidates: Vec<usize> = Vec::new();
+        let mut full_pass = true;
         loop {
-            // Most violated inactive row.
+            // Most violated inactive row (of the candidates, or of every row).
             let norm_x = norm(&self.x);
-            self.slack.resize(ws.len(), 0.0);
-            matvec(&ws.rows, &self.x, &mut self.slack);
+            let violation = |k: usize, slack: f64| -> Option<f64> {
+                let s = slack - ws.h[k];
+                (s < -tol * (ws.h[k].abs() + norm_x)).then_some(s)
+            };
             let mut best: Option<(usize, f64)> = None;
-            for k in 0..ws.len() {
-                if is_active[k] {
-                    continue;
+            if full_pass {
+                self.slack.resize(ws.len(), 0.0);
+                matvec(&ws.rows, &self.x, &mut self.slack);
+                for k in 0..ws.len() {
+                    if is_active[k] {
+                        continue;
+                    }
+                    if let Some(s) = violation(k, self.slack[k]) {
+                        if best.is_none_or(|(_, b)| s < b) {
+                            best = Some((k, s));
+                        }
+                    }
                 }
-                let s = self.slack[k] - ws.h[k];
-                if s < -tol * (ws.h[k].abs() + norm_x) && best.is_none_or(|(_, b)| s < b) {
-                    best = Some((k, s));
+                if partial {
+                    let mut by_slack: Vec<(f64, usize)> = (0..ws.len())
+                        .filter(|&k| !is_active[k])
+                        .map(|k| (self.slack[k] - ws.h[k], k))
+                        .collect();
+                    if by_slack.len() > keep {
+                        by_slack.select_nth_unstable_by(keep, |a, b| a.0.total_cmp(&b.0));
+                        by_slack.truncate(keep);
+                    }
+                    candidates = by_slack.into_iter().map(|(_, k)| k).collect();
+                }
+            } else {
+                for &k in &candidates {
+                    if is_active[k] {
+                        continue;
+                    }
+                    if let Some(s) = violation(k, dot(ws.row(k), &self.x)) {
+                        if best.is_none_or(|(_, b)| s < b) {
+                            best = Some((k, s));
+                        }
+                    }
                 }
             }
             let Some((p, mut sp)) = best else {
-                return InnerEnd::Converged;
+                if full_pass {
+                    return InnerEnd::Converged;
+                }
+                full_pass = true;
+                continue;
             };
+            full_pass = !partial;
             let np = ws.row(p).to_vec();
             let mut u_plus = 0.0;
             loop {
@@ -442,7 +487,6 @@ fn solve_native(problem: &LdpProblem, options: &SolveOptions) -> Solution {
         options.max_iterations_for(n),
     );
     let mut is_active = Vec::new();
-    let batch = options.generation_batch_for(n);
     let status = loop {
         match state.solve(&ws, &mut is_active) {
             InnerEnd::Infeasible => break Status::Infeasible,
@@ -481,6 +525,7 @@ fn solve_native(problem: &LdpProblem, options: &SolveOptions) -> Solution {
         if violated.is_empty() {
             break Status::Solved;
         }
+        let batch = options.generation_batch_for(n, ws.len());
         if violated.len() > batch {
             violated.select_nth_unstable_by(batch, |a, b| a.0.total_cmp(&b.0));
             violated.truncate(batch);
