@@ -188,11 +188,11 @@ pub fn graded_indices(dim: usize, len: usize) -> Vec<Vec<u16>> {
 }
 
 /// Coordinates [`Basis::for_each_value`] maps without allocating.
-pub const STACK_DIMS: usize = 4;
+pub(crate) const STACK_DIMS: usize = 4;
 
 /// Univariate values (summed over coordinates) [`Basis::for_each_value`]
 /// keeps on the stack.
-pub const STACK_TABLE: usize = 512;
+pub(crate) const STACK_TABLE: usize = 512;
 
 /// Largest weight [`weighted_graded_indices`] accepts.
 pub const MAX_DEGREE_WEIGHT: u16 = 16;
@@ -425,8 +425,8 @@ impl Basis {
 
     /// Calls `f(j, phi_j(x))` for the first `n` functions at `x` (original
     /// coordinates). Verification evaluates every sample of every split, so
-    /// this allocates nothing for up to [`STACK_DIMS`] coordinates and
-    /// [`STACK_TABLE`] univariate values.
+    /// this allocates nothing for up to 4 coordinates and 512 univariate
+    /// values in all (the crate's `STACK_DIMS` and `STACK_TABLE`).
     pub fn for_each_value(&self, x: &[f64], n: usize, f: impl FnMut(usize, f64)) {
         let d = self.dim();
         if d <= STACK_DIMS {
