@@ -50,7 +50,7 @@ pub struct FitArgs {
     backend: Backend,
     /// Poles between samples: none, grid or bernstein.
     #[arg(long, default_value = "grid")]
-    poles: String,
+    poles: PoleControl,
     /// How to visit the splits: exhaustive (every split of every budget, the
     /// paper's sweep) or staircase (the same smallest budget and splits in
     /// about N log N solves instead of N^2/2; see `rational_core::Search`).
@@ -124,16 +124,10 @@ fn reduction(args: &FitArgs) -> Result<Reduction> {
 
 /// Runs `ratfit fit`.
 pub fn run_fit(args: FitArgs) -> Result<()> {
-    let poles = match args.poles.as_str() {
-        "none" => PoleControl::None,
-        "grid" => PoleControl::DenseGrid { points_per_dim: 0 },
-        "bernstein" => PoleControl::Bernstein { elevation: 2 },
-        other => bail!("unknown pole control `{other}` (none, grid, bernstein)"),
-    };
     let mut fit_settings = FitSettings::default()
         .with_coeff_range(2, args.max_coeffs)?
         .with_backend(args.backend)?
-        .with_pole_control(poles)
+        .with_pole_control(args.poles)
         .with_search(args.search);
     if !args.degree_weights.is_empty() {
         fit_settings = fit_settings.with_degree_weights(args.degree_weights.clone())?;

@@ -177,7 +177,7 @@ struct FitArgs {
     search: Search,
     /// Poles between samples: none, grid (dense-grid check) or bernstein (certificate).
     #[arg(long, default_value = "grid")]
-    poles: String,
+    poles: PoleControl,
     /// Widen the intervals by this factor when nothing is feasible...
     #[arg(long, default_value_t = 2.0)]
     widen: f64,
@@ -192,19 +192,13 @@ struct FitArgs {
 
 impl FitArgs {
     fn settings(&self) -> Result<FitSettings> {
-        let poles = match self.poles.as_str() {
-            "none" => PoleControl::None,
-            "grid" => PoleControl::DenseGrid { points_per_dim: 0 },
-            "bernstein" => PoleControl::Bernstein { elevation: 2 },
-            other => bail!("unknown pole control `{other}` (none, grid, bernstein)"),
-        };
         let mut s = FitSettings::default()
             .with_family(self.basis)
             .with_coeff_range(self.min_coeffs, self.max_coeffs)?
             .with_backend(self.backend)?
             .with_selection(self.selection)
             .with_search(self.search)
-            .with_pole_control(poles);
+            .with_pole_control(self.poles);
         if self.max_widenings > 0 {
             s = s.with_widening(self.widen, self.max_widenings)?;
         }

@@ -141,6 +141,22 @@ fn bad_input_gives_clear_errors() {
         .unwrap();
     assert!(String::from_utf8_lossy(&out.stderr).contains("unknown backend"));
 
+    // An unknown pole control is named, by both fitting commands.
+    for cmd in ["fit-csv", "fit"] {
+        let out = ratfit()
+            .arg(cmd)
+            .arg(&bad)
+            .args(["--poles", "everywhere", "-o", "x.json"])
+            .output()
+            .unwrap();
+        assert!(!out.status.success());
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            err.contains("unknown pole control `everywhere`"),
+            "{cmd}: {err}"
+        );
+    }
+
     // Degree weights must be one per coordinate, each in 1..=16.
     let runge = runge_csv(&dir);
     for (weights, says) in [("1,2", "2 degree weights"), ("0", "weight 0")] {

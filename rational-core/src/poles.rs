@@ -38,6 +38,23 @@ impl Default for PoleControl {
     }
 }
 
+/// Parses `none`, `grid` (the dense grid, its size chosen from the samples)
+/// or `bernstein` (elevation 2).
+impl std::str::FromStr for PoleControl {
+    type Err = crate::FitError;
+    fn from_str(s: &str) -> Result<Self, crate::FitError> {
+        match s {
+            "none" => Ok(Self::None),
+            "grid" => Ok(Self::DenseGrid { points_per_dim: 0 }),
+            "bernstein" => Ok(Self::Bernstein { elevation: 2 }),
+            _ => Err(crate::FitError::InvalidSetting {
+                name: "poles",
+                reason: format!("unknown pole control `{s}` (none, grid, bernstein)"),
+            }),
+        }
+    }
+}
+
 fn binomial(n: usize, k: usize) -> f64 {
     (0..k).fold(1.0, |acc, i| acc * (n - i) as f64 / (i + 1) as f64)
 }
@@ -210,6 +227,21 @@ pub fn grid_check(basis: &Basis, b: &[f64], per_dim: usize, keep: usize) -> (f64
 mod tests {
     use super::*;
     use crate::{BasisFamily, Domain};
+
+    #[test]
+    fn pole_controls_parse_by_name() {
+        assert_eq!("none".parse::<PoleControl>().unwrap(), PoleControl::None);
+        assert_eq!(
+            "grid".parse::<PoleControl>().unwrap(),
+            PoleControl::default()
+        );
+        assert_eq!(
+            "bernstein".parse::<PoleControl>().unwrap(),
+            PoleControl::Bernstein { elevation: 2 }
+        );
+        let err = "poles".parse::<PoleControl>().unwrap_err().to_string();
+        assert!(err.contains("unknown pole control `poles`"), "{err}");
+    }
 
     #[test]
     fn bernstein_coefficients_reproduce_the_polynomial() {
