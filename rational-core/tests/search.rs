@@ -6,24 +6,8 @@
 use rational_core::{fit, FitError, FitReport, FitSettings, IntervalData, Search};
 use std::collections::BTreeSet;
 
-fn grid_1d(n: usize, f: impl Fn(f64) -> f64, rel: f64) -> IntervalData {
-    let x: Vec<f64> = (0..n).map(|i| i as f64 / (n - 1) as f64).collect();
-    let v = x.iter().map(|&x| f(x)).collect();
-    IntervalData::from_values_relative(1, x, v, rel).unwrap()
-}
-
-fn grid_2d(n: usize, f: impl Fn(f64, f64) -> f64, rel: f64) -> IntervalData {
-    let mut pts = Vec::new();
-    let mut v = Vec::new();
-    for i in 0..n {
-        for j in 0..n {
-            let (x, y) = (i as f64 / (n - 1) as f64, j as f64 / (n - 1) as f64);
-            pts.extend([x, y]);
-            v.push(f(x, y));
-        }
-    }
-    IntervalData::from_values_relative(2, pts, v, rel).unwrap()
-}
+mod common;
+use common::{grid_1d, grid_2d};
 
 /// Accepted splits at the chosen budget.
 fn accepted_at_budget(r: &FitReport) -> BTreeSet<(usize, usize)> {

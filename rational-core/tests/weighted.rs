@@ -5,19 +5,13 @@
 
 use rational_core::{fit, FitError, FitSettings, IntervalData, Search};
 
+mod common;
+use common::grid_2d;
+
 /// `(2 + sin(6x)) (1 + y / 5)` on an `n x n` grid of the unit square, 0.1%
 /// relative intervals: degree is needed in `x`, hardly any in `y`.
 fn anisotropic(n: usize) -> IntervalData {
-    let mut pts = Vec::new();
-    let mut v = Vec::new();
-    for i in 0..n {
-        for j in 0..n {
-            let (x, y) = (i as f64 / (n - 1) as f64, j as f64 / (n - 1) as f64);
-            pts.extend([x, y]);
-            v.push((2.0 + (6.0 * x).sin()) * (1.0 + y / 5.0));
-        }
-    }
-    IntervalData::from_values_relative(2, pts, v, 1e-3).unwrap()
+    grid_2d(n, |x, y| (2.0 + (6.0 * x).sin()) * (1.0 + y / 5.0), 1e-3)
 }
 
 fn settings() -> FitSettings {
