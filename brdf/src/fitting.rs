@@ -1,6 +1,7 @@
 //! Fitting the RGB channels of a BRDF and evaluating the fit.
 
 use crate::baseline::BaselineReport;
+use crate::design::{ChannelBounds, PerceptualBounds};
 use crate::geometry::{HalfDiff, Vec3};
 use crate::reduce::{Reduction, Samples};
 use crate::{Brdf, BrdfError};
@@ -18,6 +19,7 @@ pub struct BrdfFitSettings {
     noise_floor: f64,
     fit: FitSettings,
     baselines: bool,
+    design: Option<PerceptualBounds>,
 }
 
 impl Default for BrdfFitSettings {
@@ -30,6 +32,7 @@ impl Default for BrdfFitSettings {
             rel_tol: 0.05,
             noise_floor: 1e-2,
             baselines: true,
+            design: None,
             fit: FitSettings::default()
                 .with_coeff_range(2, 60)
                 .expect("valid range"),
@@ -88,6 +91,25 @@ impl BrdfFitSettings {
     pub fn with_fit_settings(mut self, s: FitSettings) -> Self {
         self.fit = s;
         self
+    }
+
+    /// Intervals from the perceptual design ([`PerceptualBounds`]) instead
+    /// of plain relative ones; the reduction should then cover the whole
+    /// hemisphere ([`Reduction::whole_hemisphere`]), since the design
+    /// constrains every cell it is given.
+    pub fn with_design(mut self, design: PerceptualBounds) -> Self {
+        self.design = Some(design);
+        self
+    }
+
+    /// The perceptual design, when in use.
+    pub fn design(&self) -> Option<&PerceptualBounds> {
+        self.design.as_ref()
+    }
+
+    /// The engine's settings.
+    pub fn fit_settings(&self) -> &FitSettings {
+        &self.fit
     }
 
     /// The reduction in use.
@@ -205,6 +227,9 @@ pub struct ChannelReport {
     /// `FitSettings::with_widening`).
     #[serde(default = "unit_scale")]
     pub interval_scale: f64,
+    /// What the perceptual design used (when in use).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub bounds: Option<ChannelBounds>,
     /// Baselines on the same samples (when enabled).
     pub baselines: Vec<BaselineReport>,
 }
@@ -224,6 +249,10 @@ pub struct BrdfFitReport {
     pub rel_tol: f64,
     /// Smallest half-width as a fraction of each channel's median value.
     pub noise_floor: f64,
+    /// The perceptual design, when it chose the intervals (then `rel_tol`
+    /// is its relative half-width where the light is visible).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub design: Option<PerceptualBounds>,
     /// Degree weights of the basis order (empty: the total-degree order).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub degree_weights: Vec<u16>,
@@ -246,6 +275,25 @@ impl fmt::Display for BrdfFitReport {
             self.rel_tol * 100.0,
             self.noise_floor
         )?;
+        if let Some(d) = &self.design {
+            writeln!(
+                f,
+                "  perceptual intervals: +-{}% where visible, floor {}% of the peak of f cos_i cos_o, >= {} noise deviations, capped at {}x the peak; every cell of the hemisphere",
+                d.rel_tol * 100.0,
+                d.visibility * 100.0,
+                d.noise_factor,
+                d.peak_cap
+            )?;
+            for c in &self.channels {
+                if let Some(b) = &c.bounds {
+                    writeln!(
+                        f,
+                        "  {}   peak {:.4e}, noise {:.2}% (estimated), cells bound by perception / floor / noise: {} / {} / {}",
+                        c.channel, b.peak, b.noise * 100.0, b.perceptual_cells, b.floor_cells, b.noise_cells
+                    )?;
+                }
+            }
+        }
         if !self.degree_weights.is_empty() {
             let w: Vec<String> = self.degree_weights.iter().map(u16::to_string).collect();
             writeln!(f, "  basis order: degree weights {}", w.join(","))?;
@@ -354,7 +402,7 @@ pub fn fit_samples(
     // Errors over every valid sample above the floor, grazing ones included.
     for (c, rep) in reports.iter_mut().enumerate() {
         let (mut max, mut sum, mut n) = (0.0_f64, 0.0, 0usize);
-        let floor = rep.noise_floor_abs / settings.rel_tol;
+        let floor = rep.noise_floor_abs / settings.design.map_or(settings.rel_tol, |d| d.rel_tol);
         for row in samples
             .rows
             .iter()
@@ -376,8 +424,9 @@ pub fn fit_samples(
     let report = BrdfFitReport {
         material: name.to_string(),
         reduction: settings.reduction,
-        rel_tol: settings.rel_tol,
+        rel_tol: settings.design.map_or(settings.rel_tol, |d| d.rel_tol),
         noise_floor: settings.noise_floor,
+        design: settings.design,
         degree_weights: fitted
             .channels
             .first()
@@ -397,12 +446,22 @@ fn fit_channel(
     s: &BrdfFitSettings,
 ) -> Result<(RationalFunction, ChannelReport), BrdfError> {
     let channel = ['r', 'g', 'b'][c];
-    let (data, used) = samples
-        .channel(c, s.rel_tol, s.noise_floor)
-        .map_err(|e| BrdfError::Fit { channel, source: e })?;
+    let (data, used, bounds) = match &s.design {
+        Some(design) => {
+            let (d, u, b) = samples.channel_perceptual(c, design)?;
+            (d, u, Some(b))
+        }
+        None => {
+            let (d, u) = samples
+                .channel(c, s.rel_tol, s.noise_floor)
+                .map_err(|e| BrdfError::Fit { channel, source: e })?;
+            (d, u, None)
+        }
+    };
+    let rel_tol = s.design.map_or(s.rel_tol, |d| d.rel_tol);
     let report = fit(&data, &s.fit).map_err(|e| BrdfError::Fit { channel, source: e })?;
     let f = report.function.clone();
-    let (mut wsum, mut wsq) = (0.0, 0.0);
+    let (mut wsum, mut wsq) = (0.0_f64, 0.0_f64);
     // Relative errors over the samples whose interval is relative (above the
     // noise floor); below it the bound is absolute.
     let (mut max_rel, mut sum_rel, mut n_rel) = (0.0_f64, 0.0, 0usize);
@@ -414,8 +473,8 @@ fn fit_channel(
         let e = fv - v;
         wsum += row.cos_weight;
         wsq += row.cos_weight * e * e;
-        let relative_bound = s.rel_tol * row.lo[c].min(v);
-        if v - data.lo()[k] > relative_bound * (1.0 + 1e-12) {
+        let relative_bound = rel_tol * row.lo[c].min(v);
+        if v <= 0.0 || v - data.lo()[k] > relative_bound * (1.0 + 1e-12) {
             floor_abs = floor_abs.max(v - data.lo()[k]);
         } else {
             max_rel = max_rel.max((e / v).abs());
@@ -445,7 +504,10 @@ fn fit_channel(
         cos_rmse: if wsum > 0.0 { (wsq / wsum).sqrt() } else { 0.0 },
         seconds: report.seconds,
         interval_scale: report.interval_scale,
-        baselines: if s.baselines {
+        bounds,
+        // The baselines divide by the value: plain relative intervals only
+        // (the fidelity benchmark compares the analytic peer by its renders).
+        baselines: if s.baselines && s.design.is_none() {
             vec![
                 crate::baseline::polynomial(
                     &data,

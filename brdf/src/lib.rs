@@ -26,7 +26,10 @@ mod alta_rational;
 mod analytic;
 pub mod baseline;
 pub mod compact;
+mod design;
+mod downsample;
 mod error;
+pub mod fidelity;
 mod fitting;
 mod geometry;
 mod material;
@@ -39,6 +42,8 @@ pub mod shader;
 pub use alta_rational::{AltaChannel, AltaRational};
 pub use analytic::{schlick, AshikhminShirley, BlinnPhong, CookTorranceGgx, Lambert};
 pub use compact::{CompactBrdf, CompactChannel};
+pub use design::{estimate_noise, ChannelBounds, NoiseEstimate, PerceptualBounds};
+pub use downsample::DownsampledTable;
 pub use error::BrdfError;
 pub use fitting::{
     fit_brdf, fit_samples, BrdfFitReport, BrdfFitSettings, ChannelReport, FittedBrdf,

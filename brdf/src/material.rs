@@ -5,6 +5,14 @@ use crate::geometry::Vec3;
 /// An isotropic BRDF: RGB reflectance (the cosine factor not included) for
 /// the incident direction `wi` and the outgoing direction `wo`, both unit
 /// vectors with z along the normal. Zero when either is below the horizon.
+///
+/// Convention: `wi` points towards the light and `wo` towards the viewer
+/// (the renderers call `eval(light, view)`). It matters for measured
+/// tables, which are not reciprocal: [`crate::RglBrdf`] puts the table's
+/// incident (illumination) direction at `wi`, as the material was measured;
+/// Mitsuba 3's path tracer evaluates the same files with the camera in that
+/// slot, and near normal incidence the directional albedos of the two
+/// conventions differ by up to 16%.
 pub trait Brdf: Send + Sync {
     /// RGB value of the BRDF.
     fn eval(&self, wi: Vec3, wo: Vec3) -> [f64; 3];

@@ -128,6 +128,12 @@ impl Reduction {
         self
     }
 
+    /// Every cell up to the horizon: no elevation cut, no grazing cut (the
+    /// perceptual interval design bounds those cells loosely instead).
+    pub fn whole_hemisphere(self) -> Self {
+        self.with_max_elevation(90.0).with_max_theta_d(90.0)
+    }
+
     /// Number of fitting coordinates.
     pub fn dims(&self) -> usize {
         if self.kind == ReductionKind::Full3d {
@@ -156,20 +162,21 @@ impl Reduction {
         let mut cells = Vec::new();
         for i in 0..self.n_theta_h {
             for j in 0..self.n_theta_d {
+                let index = |k: usize| [i as u32, j as u32, k as u32];
                 match self.kind {
                     ReductionKind::Full3d => {
                         for k in 0..self.n_phi_d {
-                            cells.push((self.theta_h(i), self.theta_d(j), self.phi_d(k)));
+                            cells.push((self.theta_h(i), self.theta_d(j), self.phi_d(k), index(k)));
                         }
                     }
-                    _ => cells.push((self.theta_h(i), self.theta_d(j), PI / 2.0)),
+                    _ => cells.push((self.theta_h(i), self.theta_d(j), PI / 2.0, index(0))),
                 }
             }
         }
         let spread = self.kind == ReductionKind::Spread2d;
         let rows: Vec<Option<SampleRow>> = cells
             .par_iter()
-            .map(|&(th, td, pd)| {
+            .map(|&(th, td, pd, cell)| {
                 let min_cos = self.max_elevation_deg.to_radians().cos();
                 let value = eval_at(material, th, td, pd, min_cos)?;
                 let (mut lo, mut hi) = (value.0, value.0);
@@ -184,6 +191,7 @@ impl Reduction {
                 }
                 Some(SampleRow {
                     point: self.coordinates.map(th, td, pd, dims),
+                    cell: Some(cell),
                     angles: [th, td, pd],
                     value: value.0,
                     lo,
@@ -225,6 +233,9 @@ fn eval_at(
 pub struct SampleRow {
     /// Fitting coordinates.
     pub point: Vec<f64>,
+    /// Grid indices `(theta_h, theta_d, phi_d)` of the cell (`None` for
+    /// scattered measurements).
+    pub cell: Option<[u32; 3]>,
     /// `(theta_h, theta_d, phi_d)` of the cell.
     pub angles: [f64; 3],
     /// RGB value.

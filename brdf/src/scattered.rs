@@ -175,6 +175,7 @@ impl ScatteredBrdf {
                 let pd = hd.folded_phi_d();
                 SampleRow {
                     point: reduction.coordinates.map(hd.theta_h, hd.theta_d, pd, dims),
+                    cell: None,
                     angles: [hd.theta_h, hd.theta_d, pd],
                     value: rgb,
                     lo: rgb,

@@ -57,14 +57,32 @@ pub struct FitArgs {
     #[arg(long, default_value = "exhaustive")]
     search: Search,
     /// When no budget is feasible, double every interval half-width and fit
-    /// again, at most this many times (the report names the factor used).
-    #[arg(long, default_value_t = 0)]
+    /// again, at most this many times (the report names the factor used);
+    /// 0 asks for the exact intervals or no fit.
+    #[arg(long, default_value_t = 4)]
     max_widenings: usize,
+    /// Fit to a perceptual budget instead of fixed intervals: the smallest
+    /// 3-D perceptual fit (whole hemisphere; grid from `--resolution`, else
+    /// 24^3) whose validation renders (a sphere under three directional
+    /// lights and under a sky) reach this mean CIEDE2000 against the table.
+    /// MERL and RGL files only.
+    #[arg(long, conflicts_with_all = ["perceptual", "spread"])]
+    target_de: Option<f64>,
+    /// Seconds `--target-de` may spend on fits and renders before it
+    /// returns the best fit so far.
+    #[arg(long, default_value_t = 120.0)]
+    time_budget: f64,
     /// Degree weights of the basis order, one per fitting coordinate
     /// (`theta_h,theta_d[,phi_d]`): `1,2` spends twice the degree on
     /// `theta_h` as on `theta_d` for the same budget. Default: all 1.
     #[arg(long, value_delimiter = ',')]
     degree_weights: Vec<u16>,
+    /// Perceptual intervals (`brdf::PerceptualBounds`): `--rel-tol` where
+    /// the reflected light is visible, an absolute floor on `f cos_i cos_o`
+    /// elsewhere, never tighter than the table's estimated noise, and every
+    /// cell of the hemisphere constrained (no elevation or grazing cut).
+    #[arg(long)]
+    perceptual: bool,
     /// Print the report as JSON.
     #[arg(long)]
     json: bool,
@@ -138,11 +156,20 @@ pub fn run_fit(args: FitArgs) -> Result<()> {
     if args.format == "alta" {
         return run_fit_alta(&args, &fit_settings);
     }
-    let settings = BrdfFitSettings::default()
+    if let Some(target) = args.target_de {
+        return run_fit_target(&args, fit_settings, target);
+    }
+    let mut settings = BrdfFitSettings::default()
         .with_reduction(reduction(&args)?)
         .with_rel_tol(args.rel_tol)?
         .with_noise_floor(args.noise_floor)?
         .with_fit_settings(fit_settings);
+    if args.perceptual {
+        let whole = settings.reduction().whole_hemisphere();
+        settings = settings
+            .with_reduction(whole)
+            .with_design(brdf::PerceptualBounds::default().with_rel_tol(args.rel_tol)?);
+    }
     let (fitted, report) = if args.format == "cornell" {
         let data = ScatteredBrdf::read_cornell(&args.material)?;
         let samples = data.samples(settings.reduction());
@@ -157,6 +184,52 @@ pub fn run_fit(args: FitArgs) -> Result<()> {
         println!("{report}");
     }
     let out = serde_json::json!({ "brdf": fitted, "report": report });
+    std::fs::write(&args.output, serde_json::to_string_pretty(&out)?)
+        .with_context(|| format!("cannot write {}", args.output.display()))?;
+    eprintln!("wrote {}", args.output.display());
+    Ok(())
+}
+
+/// `--target-de`: the smallest 3-D perceptual fit reaching a render error.
+fn run_fit_target(args: &FitArgs, fit_settings: FitSettings, target: f64) -> Result<()> {
+    if !(target > 0.0 && target.is_finite()) {
+        bail!("--target-de {target}: give a positive CIEDE2000 value");
+    }
+    if !(args.time_budget > 0.0 && args.time_budget.is_finite()) {
+        bail!(
+            "--time-budget {}: give a positive number of seconds",
+            args.time_budget
+        );
+    }
+    if args.format != "merl" && args.format != "rgl" {
+        bail!("--target-de renders the table: use --format merl or rgl");
+    }
+    let mut reduction = reduction(args)?
+        .with_kind(ReductionKind::Full3d)
+        .whole_hemisphere();
+    if args.resolution.is_none() {
+        reduction = reduction.with_resolution(24, 24).with_phi_resolution(24);
+    }
+    let settings = BrdfFitSettings::default()
+        .with_reduction(reduction)
+        .with_baselines(false)
+        .with_fit_settings(fit_settings);
+    let material: std::sync::Arc<dyn Brdf> = load_material(&args.material, &args.format)?.into();
+    let (fitted, target_report) = render_cpu::fidelity::fit_to_target(
+        material,
+        target,
+        &settings,
+        render_cpu::fidelity::ValidationSettings::default(),
+        args.time_budget,
+    )?;
+    println!(
+        "{}: {} coefficients, {} bytes (f32), 3-D perceptual fit over the whole hemisphere",
+        fitted.name,
+        fitted.coefficients(),
+        fitted.byte_size_f32()
+    );
+    println!("{target_report}");
+    let out = serde_json::json!({ "brdf": fitted, "target": target_report });
     std::fs::write(&args.output, serde_json::to_string_pretty(&out)?)
         .with_context(|| format!("cannot write {}", args.output.display()))?;
     eprintln!("wrote {}", args.output.display());

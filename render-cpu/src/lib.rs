@@ -49,6 +49,7 @@ mod camera;
 pub mod color;
 pub mod compare;
 mod error;
+pub mod fidelity;
 mod geometry;
 mod image;
 mod integrator;

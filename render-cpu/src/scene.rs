@@ -278,6 +278,11 @@ pub enum MaterialDescription {
         /// Largest coefficient budget per channel (default 60).
         #[serde(default = "default_max_coeffs")]
         max_coeffs: usize,
+        /// Instead of `rel_tol`: the smallest 3-D perceptual fit whose
+        /// validation renders reach this mean CIEDE2000 (see
+        /// `render_cpu::fidelity::fit_to_target`; `dims` is then 3).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        target_de: Option<f64>,
     },
 }
 

@@ -4,6 +4,7 @@
 //! `ratfit bench check` re-checks a finished run's outputs.
 
 mod aaa;
+mod fidelity;
 mod gpu;
 mod instances;
 mod paper;
@@ -33,6 +34,11 @@ enum BenchWhat {
     /// tolerances and sizes; write results.csv, the error-against-time
     /// figure and summary.md, then check them.
     Fit(FitBenchArgs),
+    /// Every representation of every material judged by its renders:
+    /// CIEDE2000 on two validation scenes and BRDF-space error over the
+    /// whole hemisphere, against bytes, next to a fitted analytic model and
+    /// the table downsampled to the same bytes.
+    Fidelity(fidelity::FidelityArgs),
     /// Compare the BRDF samplers of a scene at equal samples and equal
     /// time: error against a high-sample reference against render time.
     Render(render::RenderBenchArgs),
@@ -82,6 +88,7 @@ struct FitBenchArgs {
 pub fn run_bench(args: BenchArgs) -> Result<()> {
     match args.what {
         BenchWhat::Fit(a) => run_fit(a),
+        BenchWhat::Fidelity(a) => fidelity::run(a),
         BenchWhat::Render(a) => render::run(a),
         BenchWhat::Paper(a) => paper::run(a),
         BenchWhat::Gpu(a) => gpu::run(a),

@@ -181,9 +181,10 @@ impl MaterialBuilder<'_> {
                 rel_tol,
                 dims,
                 max_coeffs,
+                target_de,
             } => {
                 let settings_text = format!(
-                    "fitted source={source} rel_tol={rel_tol} dims={dims} max_coeffs={max_coeffs}"
+                    "fitted source={source} rel_tol={rel_tol} dims={dims} max_coeffs={max_coeffs} target_de={target_de:?}"
                 );
                 let fitted = match self
                     .cache
@@ -196,10 +197,55 @@ impl MaterialBuilder<'_> {
                     }
                     None => {
                         let (src, _, src_desc, _, _) = self.build(&source, log)?;
+                        let dims = if target_de.is_some() { 3 } else { dims };
                         let settings = fit_settings(rel_tol, dims, max_coeffs)
                             .map_err(|e| self.material_error(name, e))?;
-                        let (fitted, report) = brdf::fit_brdf(src.as_ref(), &settings)
-                            .map_err(|e| self.material_error(name, e))?;
+                        let (fitted, report) = match target_de {
+                            Some(target) => {
+                                let settings = settings.with_reduction(
+                                    Reduction::default()
+                                        .with_kind(ReductionKind::Full3d)
+                                        .with_resolution(16, 16)
+                                        .with_phi_resolution(16)
+                                        .whole_hemisphere(),
+                                );
+                                let validation = crate::fidelity::ValidationSettings {
+                                    size: 64,
+                                    sky_spp: 32,
+                                    ..Default::default()
+                                };
+                                let (fitted, target) = crate::fidelity::fit_to_target(
+                                    src.clone(),
+                                    target,
+                                    &settings,
+                                    validation,
+                                    60.0,
+                                )?;
+                                log.push(
+                                    Action::Prepared,
+                                    &what,
+                                    format!(
+                                        "target CIEDE2000 {}: {}",
+                                        target.target_de,
+                                        target.to_string().lines().next().unwrap_or_default()
+                                    ),
+                                    start.elapsed().as_secs_f64(),
+                                );
+                                let report = brdf::BrdfFitReport {
+                                    material: src.name(),
+                                    reduction: fitted.reduction,
+                                    rel_tol: target.rel_tol,
+                                    noise_floor: 0.0,
+                                    design: None,
+                                    degree_weights: Vec::new(),
+                                    channels: Vec::new(),
+                                    seconds: target.seconds,
+                                };
+                                (fitted, report)
+                            }
+                            None => brdf::fit_brdf(src.as_ref(), &settings)
+                                .map_err(|e| self.material_error(name, e))?,
+                        };
                         let stored = self.cache.put(
                             "fit",
                             key,
@@ -263,8 +309,11 @@ fn fit_settings(
     if dims == 3 {
         r = r.with_resolution(45, 45).with_phi_resolution(45);
     }
+    // Widening keeps a scene rendering when the intervals asked for have no
+    // fit within the budget; the log names the factor.
     let engine = rational_core::FitSettings::default()
         .with_coeff_range(2, max_coeffs)
+        .and_then(|s| s.with_widening(2.0, 4))
         .map_err(|e| brdf::BrdfError::Invalid {
             name: "max_coeffs",
             reason: e.to_string(),

@@ -1,0 +1,174 @@
+//! The honest "just store less" peer: a table downsampled to a byte budget.
+
+use crate::geometry::{HalfDiff, Vec3};
+use crate::Brdf;
+use rayon::prelude::*;
+use std::f64::consts::PI;
+
+/// An isotropic table on a coarse `(sqrt(theta_h / (pi/2)), theta_d, phi_d)`
+/// grid of cell averages (RGB, f32 in storage), interpolated trilinearly
+/// between cell centres and held constant beyond the outer centres.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DownsampledTable {
+    /// Bins in the warped `theta_h`, `theta_d` and folded `phi_d`.
+    pub bins: [usize; 3],
+    /// RGB per cell, `phi_d` fastest.
+    pub values: Vec<[f32; 3]>,
+    name: String,
+}
+
+/// Sub-samples per axis when averaging a cell.
+const SUPERSAMPLE: usize = 3;
+
+impl DownsampledTable {
+    /// The grid whose RGB f32 cells fit in `bytes`: `theta_h` and `theta_d`
+    /// get twice the bins of `phi_d` (a BRDF varies least along `phi_d`).
+    pub fn bins_for_bytes(bytes: usize) -> [usize; 3] {
+        let cells = (bytes / 12).max(1);
+        let mut best = [1, 1, 1];
+        let score = |b: [usize; 3]| (b[0] * b[1] * b[2], b[0]);
+        for nh in 1..=cells {
+            for nd in 1..=cells / nh {
+                let np = (cells / (nh * nd)).min(nh.min(nd).div_ceil(2)).max(1);
+                let candidate = [nh, nd, np];
+                // Near-square in theta_h and theta_d; phi_d at most half of either.
+                let square = nh.abs_diff(nd) <= 1.max(nh.max(nd) / 3);
+                if square && score(candidate) > score(best) {
+                    best = candidate;
+                }
+            }
+        }
+        best
+    }
+
+    /// Averages `material` over each cell of a `bins` grid.
+    pub fn new(material: &dyn Brdf, bins: [usize; 3]) -> Self {
+        let bins = bins.map(|b| b.max(1));
+        let [nh, nd, np] = bins;
+        let values = (0..nh * nd * np)
+            .into_par_iter()
+            .map(|n| {
+                let (i, j, k) = (n / (nd * np), (n / np) % nd, n % np);
+                let (mut sum, mut count) = ([0.0f64; 3], 0usize);
+                for a in 0..SUPERSAMPLE {
+                    for b in 0..SUPERSAMPLE {
+                        for c in 0..SUPERSAMPLE {
+                            let sub = |cell: usize, s: usize, bins: usize| {
+                                (cell as f64 + (s as f64 + 0.5) / SUPERSAMPLE as f64) / bins as f64
+                            };
+                            let u = sub(i, a, nh);
+                            let (wi, wo) = HalfDiff {
+                                theta_h: u * u * PI / 2.0,
+                                phi_h: 0.0,
+                                theta_d: sub(j, b, nd) * PI / 2.0,
+                                phi_d: sub(k, c, np) * PI,
+                            }
+                            .to_directions();
+                            if wi[2] > 0.0 && wo[2] > 0.0 {
+                                let v = material.eval(wi, wo);
+                                if v.iter().all(|x| x.is_finite()) {
+                                    for ch in 0..3 {
+                                        sum[ch] += v[ch].max(0.0);
+                                    }
+                                    count += 1;
+                                }
+                            }
+                        }
+                    }
+                }
+                sum.map(|s| (s / count.max(1) as f64) as f32)
+            })
+            .collect();
+        Self {
+            bins,
+            values,
+            name: material.name(),
+        }
+    }
+
+    /// Bytes of the stored cells (RGB f32).
+    pub fn byte_size_f32(&self) -> usize {
+        self.values.len() * 12
+    }
+}
+
+/// Linear interpolation position between cell centres: lower index and weight.
+fn cell_position(x: f64, bins: usize) -> (usize, f64) {
+    let p = (x * bins as f64 - 0.5).clamp(0.0, (bins - 1) as f64);
+    let i = (p.floor() as usize).min(bins.saturating_sub(2));
+    (i, if bins > 1 { p - i as f64 } else { 0.0 })
+}
+
+impl Brdf for DownsampledTable {
+    fn eval(&self, wi: Vec3, wo: Vec3) -> [f64; 3] {
+        if wi[2] <= 0.0 || wo[2] <= 0.0 {
+            return [0.0; 3];
+        }
+        let hd = HalfDiff::from_directions(wi, wo);
+        let [nh, nd, np] = self.bins;
+        let u = (hd.theta_h.max(0.0) / (PI / 2.0)).sqrt();
+        let (i, wi_) = cell_position(u, nh);
+        let (j, wj) = cell_position(hd.theta_d / (PI / 2.0), nd);
+        let (k, wk) = cell_position(hd.folded_phi_d() / PI, np);
+        let mut out = [0.0; 3];
+        for (di, fi) in [(0, 1.0 - wi_), (1, wi_)] {
+            for (dj, fj) in [(0, 1.0 - wj), (1, wj)] {
+                for (dk, fk) in [(0, 1.0 - wk), (1, wk)] {
+                    let w = fi * fj * fk;
+                    if w == 0.0 {
+                        continue;
+                    }
+                    let (a, b, c) = (
+                        (i + di).min(nh - 1),
+                        (j + dj).min(nd - 1),
+                        (k + dk).min(np - 1),
+                    );
+                    let v = self.values[(a * nd + b) * np + c];
+                    for ch in 0..3 {
+                        out[ch] += w * f64::from(v[ch]);
+                    }
+                }
+            }
+        }
+        out
+    }
+
+    fn name(&self) -> String {
+        format!(
+            "{} downsampled to {}x{}x{}",
+            self.name, self.bins[0], self.bins[1], self.bins[2]
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{from_spherical, Lambert};
+
+    #[test]
+    fn budgets_give_grids_that_fit_them() {
+        for bytes in [12, 100, 300, 1024, 4096] {
+            let b = DownsampledTable::bins_for_bytes(bytes);
+            let cells: usize = b.iter().product();
+            assert!(cells * 12 <= bytes.max(12), "{bytes}: {b:?}");
+            assert!(
+                cells * 12 * 2 > bytes,
+                "{bytes}: {b:?} wastes half the budget"
+            );
+        }
+    }
+
+    #[test]
+    fn a_constant_material_is_reproduced_exactly() {
+        let m = Lambert {
+            albedo: [0.2, 0.5, 0.8],
+        };
+        let t = DownsampledTable::new(&m, [4, 3, 2]);
+        assert_eq!(t.byte_size_f32(), 4 * 3 * 2 * 12);
+        let v = t.eval(from_spherical(0.3, 0.1), from_spherical(1.2, 2.0));
+        for c in 0..3 {
+            assert!((v[c] - m.albedo[c] / PI).abs() < 1e-6);
+        }
+    }
+}

@@ -1,0 +1,710 @@
+//! `ratfit bench fidelity`: every representation of every material judged by
+//! its renders. For each material: the table rendered on the two validation
+//! scenes, then each representation (rational modes, Cook-Torrance GGX
+//! fitted to the whole material, the table downsampled to the same bytes)
+//! measured by mean and 99th-percentile CIEDE2000 over the object's pixels,
+//! BRDF-space relative error by elevation band over the whole hemisphere,
+//! and the largest value anywhere against the table's peak. Writes
+//! `results.csv`, `summary.md`, `de_vs_bytes.svg`/`.png` (the Pareto front
+//! ringed) and table / representation / difference images, then checks them.
+
+use super::instances::data_dir;
+use super::summary::utc_date;
+use crate::chart::{pareto_front, Figure, Panel};
+use anyhow::{bail, Context, Result};
+use brdf::fidelity::{hemisphere_errors, HemisphereErrors, HemisphereSettings};
+use brdf::{Brdf, DownsampledTable, MerlBrdf, RglBrdf};
+use clap::Args;
+use render_cpu::fidelity::{RenderErrors, ValidationScene, ValidationSettings, Validator};
+use render_cpu::{false_colour, FitInDomain, Image};
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::Instant;
+
+/// Options of `ratfit bench fidelity`.
+#[derive(Args)]
+pub struct FidelityArgs {
+    /// Folder of materials (`.bsdf` RGL, `.binary` MERL), or one file;
+    /// default: `rgl` under `RATFIT_DATA` or `../shared/data`.
+    path: Option<PathBuf>,
+    /// Output folder.
+    #[arg(long, default_value = "target/bench-fidelity")]
+    out: PathBuf,
+    /// A few materials at small size (under three minutes): 2 RGL files,
+    /// 64 x 64 renders, the 2-D fit at 20% and one 3-D perceptual fit at
+    /// 16% on a 16^3 grid.
+    #[arg(long)]
+    quick: bool,
+    /// Only materials whose file name contains this.
+    #[arg(long)]
+    only: Option<String>,
+    /// Relative half-widths of the perceptual 3-D fits (comma-separated).
+    #[arg(long, value_delimiter = ',', default_value = "0.08,0.16")]
+    tols: Vec<f64>,
+    /// Bins per angle of the 3-D grid.
+    #[arg(long, default_value_t = 24)]
+    resolution_3d: usize,
+    /// Largest coefficient budget per channel.
+    #[arg(long, default_value_t = 120)]
+    max_coeffs: usize,
+    /// Validation render size (pixels per side).
+    #[arg(long, default_value_t = 128)]
+    size: usize,
+    /// Samples per pixel of the sky scene.
+    #[arg(long, default_value_t = 256)]
+    sky_spp: usize,
+}
+
+/// One representation of one material.
+struct Row {
+    material: String,
+    representation: String,
+    bytes: usize,
+    fit_s: f64,
+    render: RenderErrors,
+    hemisphere: HemisphereErrors,
+    note: String,
+}
+
+fn materials(path: &Path, only: Option<&str>, quick: bool) -> Result<Vec<PathBuf>> {
+    let mut files: Vec<PathBuf> = if path.is_file() {
+        vec![path.to_path_buf()]
+    } else {
+        std::fs::read_dir(path)
+            .with_context(|| format!("cannot read {}", path.display()))?
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| p.extension().is_some_and(|x| x == "bsdf" || x == "binary"))
+            .collect()
+    };
+    files.retain(|p| {
+        only.is_none_or(|o| {
+            p.file_name()
+                .is_some_and(|n| n.to_string_lossy().contains(o))
+        })
+    });
+    files.sort();
+    if quick {
+        // One matte and one glossy file when both are there.
+        let pick: Vec<PathBuf> = ["cm_military_green", "vch_golden_yellow"]
+            .iter()
+            .filter_map(|n| {
+                files
+                    .iter()
+                    .find(|p| p.to_string_lossy().contains(n))
+                    .cloned()
+            })
+            .collect();
+        files = if pick.is_empty() {
+            files.into_iter().take(2).collect()
+        } else {
+            pick
+        };
+    }
+    if files.is_empty() {
+        bail!("no material files (.bsdf, .binary) in {}", path.display());
+    }
+    Ok(files)
+}
+
+fn load(path: &Path) -> Result<Arc<dyn Brdf>> {
+    Ok(match path.extension().and_then(|e| e.to_str()) {
+        Some("binary") => Arc::new(MerlBrdf::read(path)?),
+        _ => Arc::new(RglBrdf::read(path)?),
+    })
+}
+
+/// Settings of the representations measured.
+struct Plan {
+    perceptual_2d: bool,
+    tols: Vec<f64>,
+    resolution_3d: usize,
+    max_coeffs: usize,
+    hemisphere: HemisphereSettings,
+}
+
+fn rational_reps(
+    table: &dyn Brdf,
+    plan: &Plan,
+) -> Vec<(String, Result<(brdf::FittedBrdf, String)>, f64)> {
+    let mut out = Vec::new();
+    // Today's former default for scenes: the 2-D slice at 20% inside the cuts.
+    let start = Instant::now();
+    let r = rational_mode::fit_plain_2d(table, 0.2, plan.max_coeffs);
+    out.push((
+        "rational 2-D 20%".to_string(),
+        r,
+        start.elapsed().as_secs_f64(),
+    ));
+    if plan.perceptual_2d {
+        let start = Instant::now();
+        let t = plan.tols.iter().copied().fold(0.0, f64::max).min(0.08);
+        let r = rational_mode::fit_perceptual(table, 2, t, 90, plan.max_coeffs);
+        out.push((
+            format!("rational 2-D perceptual {}%", t * 100.0),
+            r,
+            start.elapsed().as_secs_f64(),
+        ));
+    }
+    for &t in &plan.tols {
+        let start = Instant::now();
+        let r = rational_mode::fit_perceptual(table, 3, t, plan.resolution_3d, plan.max_coeffs);
+        out.push((
+            format!("rational 3-D perceptual {}%", t * 100.0),
+            r,
+            start.elapsed().as_secs_f64(),
+        ));
+    }
+    out
+}
+
+/// The rational modes the benchmark fits, by name.
+mod rational_mode {
+    use anyhow::Result;
+    use brdf::{
+        fit_brdf, Brdf, BrdfFitSettings, FittedBrdf, PerceptualBounds, Reduction, ReductionKind,
+    };
+    use rational_core::{FitSettings, Search};
+
+    fn engine(max_coeffs: usize) -> Result<FitSettings> {
+        Ok(FitSettings::default()
+            .with_coeff_range(2, max_coeffs)?
+            .with_search(Search::Staircase)
+            .with_widening(2.0, 4)?)
+    }
+
+    fn describe(fitted: &FittedBrdf, report: &brdf::BrdfFitReport) -> String {
+        let widened: Vec<String> = report
+            .channels
+            .iter()
+            .filter(|c| c.interval_scale > 1.0)
+            .map(|c| format!("{} x{}", c.channel, c.interval_scale))
+            .collect();
+        let splits: Vec<String> = report
+            .channels
+            .iter()
+            .map(|c| format!("({},{})", c.n_p, c.n_q))
+            .collect();
+        let verified = report.channels.iter().all(|c| c.verified);
+        format!(
+            "splits {}; {}{}",
+            splits.join(" "),
+            if verified { "verified" } else { "NOT verified" },
+            if widened.is_empty() {
+                String::new()
+            } else {
+                format!("; widened {}", widened.join(" "))
+            }
+        ) + &format!("; {} coefficients", fitted.coefficients())
+    }
+
+    /// The 2-D `phi_d = pi/2` slice with plain relative intervals inside the
+    /// 78-degree grazing and 70-degree elevation cuts.
+    pub fn fit_plain_2d(
+        table: &dyn Brdf,
+        rel_tol: f64,
+        max_coeffs: usize,
+    ) -> Result<(FittedBrdf, String)> {
+        let settings = BrdfFitSettings::default()
+            .with_rel_tol(rel_tol)?
+            .with_baselines(false)
+            .with_fit_settings(engine(max_coeffs)?);
+        let (f, r) = fit_brdf(table, &settings)?;
+        let d = describe(&f, &r);
+        Ok((f, d))
+    }
+
+    /// The 2-D slice or the full `(theta_h, theta_d, phi_d)` grid over the
+    /// whole hemisphere with perceptual intervals.
+    pub fn fit_perceptual(
+        table: &dyn Brdf,
+        dims: usize,
+        rel_tol: f64,
+        resolution: usize,
+        max_coeffs: usize,
+    ) -> Result<(FittedBrdf, String)> {
+        let kind = if dims == 3 {
+            ReductionKind::Full3d
+        } else {
+            ReductionKind::Slice2d
+        };
+        let reduction = Reduction::default()
+            .with_kind(kind)
+            .with_resolution(resolution, resolution)
+            .with_phi_resolution(resolution)
+            .whole_hemisphere();
+        let settings = BrdfFitSettings::default()
+            .with_reduction(reduction)
+            .with_design(PerceptualBounds::default().with_rel_tol(rel_tol)?)
+            .with_baselines(false)
+            .with_fit_settings(engine(max_coeffs)?);
+        let (f, r) = fit_brdf(table, &settings)?;
+        let d = describe(&f, &r);
+        Ok((f, d))
+    }
+}
+
+fn measure(
+    material: &str,
+    name: String,
+    candidate: Arc<dyn Brdf>,
+    bytes: usize,
+    fit_s: f64,
+    note: String,
+    table: &dyn Brdf,
+    validator: &Validator,
+    plan: &Plan,
+) -> Result<Row> {
+    let render = validator.measure(candidate.clone())?;
+    let hemisphere = hemisphere_errors(table, candidate.as_ref(), &plan.hemisphere);
+    let row = Row {
+        material: material.to_string(),
+        representation: name,
+        bytes,
+        fit_s,
+        render,
+        hemisphere,
+        note,
+    };
+    println!(
+        "  {:<34} {:>6} B  fit {:>7.2} s  dE lights {:>6.3} (p99 {:>6.2})  sky {:>6.3} (p99 {:>6.2})  median rel <80 {:>6.3}  peak x{:<6.2} {}",
+        row.representation,
+        row.bytes,
+        row.fit_s,
+        row.render.scenes[0].mean_de,
+        row.render.scenes[0].p99_de,
+        row.render.scenes[1].mean_de,
+        row.render.scenes[1].p99_de,
+        row.hemisphere.median_below_80,
+        row.hemisphere.peak_ratio,
+        row.note
+    );
+    Ok(row)
+}
+
+fn slug(s: &str) -> String {
+    s.chars()
+        .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })
+        .collect::<String>()
+        .split('_')
+        .filter(|p| !p.is_empty())
+        .collect::<Vec<_>>()
+        .join("_")
+}
+
+fn write_images(
+    out: &Path,
+    material: &str,
+    rep: &str,
+    reference: &[Image],
+    row: &Row,
+) -> Result<()> {
+    for (k, scene) in ValidationScene::ALL.iter().enumerate() {
+        let base = format!("{}-{}", slug(material), scene.name());
+        let table_png = out.join(format!("{base}-table.png"));
+        if !table_png.exists() {
+            reference[k].write(&table_png, 1.0)?;
+        }
+        let img = &row.render.images[k];
+        img.write(&out.join(format!("{base}-{}.png", slug(rep))), 1.0)?;
+        let (_, map) = render_cpu::compare(&reference[k], img, 1.0)?;
+        let rgb = false_colour(&map, 5.0);
+        render_cpu::write_png(
+            &out.join(format!("{base}-{}-diff.png", slug(rep))),
+            img.width,
+            img.height,
+            &rgb,
+        )?;
+    }
+    Ok(())
+}
+
+/// Runs `ratfit bench fidelity`.
+pub fn run(args: FidelityArgs) -> Result<()> {
+    let start = Instant::now();
+    for &t in &args.tols {
+        if !(t > 0.0 && t < 1.0) {
+            bail!("--tols: {t} is not in (0, 1)");
+        }
+    }
+    if !(2..=90).contains(&args.resolution_3d) {
+        bail!("--resolution-3d {}: use 2 to 90 bins", args.resolution_3d);
+    }
+    if !(8..=1024).contains(&args.size) || !(1..=4096).contains(&args.sky_spp) {
+        bail!("--size must be in 8..=1024 and --sky-spp in 1..=4096");
+    }
+    let path = match &args.path {
+        Some(p) => p.clone(),
+        None => data_dir()
+            .map(|d| d.join("rgl"))
+            .context("no material folder given and no data directory found (set RATFIT_DATA)")?,
+    };
+    let files = materials(&path, args.only.as_deref(), args.quick)?;
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("cannot create {}", args.out.display()))?;
+    let settings = if args.quick {
+        ValidationSettings {
+            size: 64,
+            lights_spp: 2,
+            sky_spp: 32,
+            seed: 1,
+        }
+    } else {
+        ValidationSettings {
+            size: args.size,
+            sky_spp: args.sky_spp,
+            ..Default::default()
+        }
+    };
+    let plan = Plan {
+        perceptual_2d: !args.quick,
+        tols: if args.quick {
+            vec![0.16]
+        } else {
+            args.tols.clone()
+        },
+        resolution_3d: if args.quick { 16 } else { args.resolution_3d },
+        max_coeffs: args.max_coeffs,
+        hemisphere: if args.quick {
+            HemisphereSettings {
+                pairs: 10_000,
+                grid: [32, 32, 16],
+                ..Default::default()
+            }
+        } else {
+            HemisphereSettings::default()
+        },
+    };
+    let mut rows: Vec<Row> = Vec::new();
+    let mut noise: Vec<(String, Vec<f64>)> = Vec::new();
+    for file in &files {
+        let material = file
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        let t0 = Instant::now();
+        let table = load(file)?;
+        let validator = Validator::new(table.clone(), settings)?;
+        let floor: Vec<f64> = validator.noise.iter().map(|n| n.mean_de).collect();
+        println!(
+            "{material}: table rendered in {:.1} s; table against itself (another seed): dE lights {:.3}, sky {:.3}",
+            t0.elapsed().as_secs_f64(),
+            floor[0],
+            floor[1]
+        );
+        noise.push((material.clone(), floor));
+        let mut material_rows = Vec::new();
+        for (name, result, fit_s) in rational_reps(table.as_ref(), &plan) {
+            match result {
+                Ok((fitted, note)) => {
+                    let bytes = fitted.byte_size_f32();
+                    let candidate: Arc<dyn Brdf> = Arc::new(FitInDomain::new(fitted));
+                    let row = measure(
+                        &material,
+                        name,
+                        candidate,
+                        bytes,
+                        fit_s,
+                        note,
+                        table.as_ref(),
+                        &validator,
+                        &plan,
+                    )?;
+                    material_rows.push(row);
+                }
+                Err(e) => println!("  {name:<34} no fit: {e:#}"),
+            }
+        }
+        // The analytic peer.
+        let ggx = brdf::baseline::fit_ggx(table.as_ref());
+        let note = format!(
+            "kd {:.3?} f0 {:.3?} alpha {:.4}",
+            ggx.model.kd, ggx.model.f0, ggx.model.alpha
+        );
+        let row = measure(
+            &material,
+            "Cook-Torrance GGX (LM, log)".into(),
+            Arc::new(ggx.model),
+            28,
+            ggx.seconds,
+            note,
+            table.as_ref(),
+            &validator,
+            &plan,
+        )?;
+        material_rows.push(row);
+        // The table downsampled to the bytes of each rational representation
+        // and to 1 KB.
+        let mut budgets: Vec<usize> = material_rows
+            .iter()
+            .filter(|r| r.representation.starts_with("rational"))
+            .map(|r| r.bytes)
+            .chain([1024])
+            .collect();
+        budgets.sort_unstable();
+        budgets.dedup();
+        for bytes in budgets {
+            let bins = DownsampledTable::bins_for_bytes(bytes);
+            let t1 = Instant::now();
+            let down = DownsampledTable::new(table.as_ref(), bins);
+            let size = down.byte_size_f32();
+            let row = measure(
+                &material,
+                format!("table downsampled to {size} B"),
+                Arc::new(down),
+                size,
+                t1.elapsed().as_secs_f64(),
+                format!("{}x{}x{} cells", bins[0], bins[1], bins[2]),
+                table.as_ref(),
+                &validator,
+                &plan,
+            )?;
+            material_rows.push(row);
+        }
+        for row in &material_rows {
+            write_images(
+                &args.out,
+                &material,
+                &row.representation,
+                validator.references(),
+                row,
+            )?;
+        }
+        rows.extend(material_rows);
+        write_outputs(&args, &rows, &noise, start.elapsed().as_secs_f64())?;
+    }
+    let problems = check(&args.out, &rows, &noise);
+    if !problems.is_empty() {
+        for p in &problems {
+            eprintln!("check: {p}");
+        }
+        bail!("{} problem(s) in {}", problems.len(), args.out.display());
+    }
+    println!(
+        "check: {} is complete ({} rows); wrote {} in {:.1} s",
+        args.out.display(),
+        rows.len(),
+        args.out.display(),
+        start.elapsed().as_secs_f64()
+    );
+    Ok(())
+}
+
+const HEADER: &str = "material,representation,bytes,fit_s,lights_mean_de,lights_p99_de,sky_mean_de,sky_p99_de,median_rel_0_70,p90_rel_0_70,max_rel_0_70,median_rel_70_80,p90_rel_70_80,max_rel_70_80,median_rel_80_90,p90_rel_80_90,max_rel_80_90,median_rel_below_80,peak_ratio,note";
+
+fn write_outputs(
+    args: &FidelityArgs,
+    rows: &[Row],
+    noise: &[(String, Vec<f64>)],
+    wall_s: f64,
+) -> Result<()> {
+    let mut csv = String::from(HEADER);
+    csv.push('\n');
+    for r in rows {
+        let b = &r.hemisphere.bands;
+        let _ = writeln!(
+            csv,
+            "{},{},{},{:.3},{:.4},{:.4},{:.4},{:.4},{:.4e},{:.4e},{:.4e},{:.4e},{:.4e},{:.4e},{:.4e},{:.4e},{:.4e},{:.4e},{:.4},\"{}\"",
+            r.material,
+            r.representation,
+            r.bytes,
+            r.fit_s,
+            r.render.scenes[0].mean_de,
+            r.render.scenes[0].p99_de,
+            r.render.scenes[1].mean_de,
+            r.render.scenes[1].p99_de,
+            b[0].median,
+            b[0].p90,
+            b[0].max,
+            b[1].median,
+            b[1].p90,
+            b[1].max,
+            b[2].median,
+            b[2].p90,
+            b[2].max,
+            r.hemisphere.median_below_80,
+            r.hemisphere.peak_ratio,
+            r.note.replace('"', "'")
+        );
+    }
+    std::fs::write(args.out.join("results.csv"), csv)?;
+    std::fs::write(
+        args.out.join("summary.md"),
+        summary(args, rows, noise, wall_s),
+    )?;
+    // Mean CIEDE2000 (the worse scene) against bytes, one panel per material.
+    let mut legend: Vec<String> = Vec::new();
+    let series = |name: &str| -> String {
+        if name.starts_with("rational") {
+            name.to_string()
+        } else if name.starts_with("table") {
+            "table downsampled".into()
+        } else {
+            name.to_string()
+        }
+    };
+    for r in rows {
+        let s = series(&r.representation);
+        if !legend.contains(&s) {
+            legend.push(s);
+        }
+    }
+    let mut panels: Vec<Panel> = Vec::new();
+    for (material, _) in noise {
+        let pts: Vec<(usize, f64, f64)> = rows
+            .iter()
+            .filter(|r| &r.material == material)
+            .map(|r| {
+                let k = legend
+                    .iter()
+                    .position(|l| *l == series(&r.representation))
+                    .unwrap_or(0);
+                (k, r.bytes as f64, r.render.worst_mean())
+            })
+            .collect();
+        let front = pareto_front(&pts.iter().map(|p| (p.1, p.2)).collect::<Vec<_>>());
+        panels.push(Panel {
+            title: material.clone(),
+            points: pts,
+            front,
+        });
+    }
+    let figure = Figure {
+        title: "Render error against bytes (worse of the two validation scenes)".into(),
+        x_label: "bytes (f32)".into(),
+        y_label: "mean CIEDE2000".into(),
+        legend,
+        panels,
+        columns: 3,
+    };
+    std::fs::write(args.out.join("de_vs_bytes.svg"), figure.svg())?;
+    figure.png(&args.out.join("de_vs_bytes.png"))?;
+    Ok(())
+}
+
+fn summary(args: &FidelityArgs, rows: &[Row], noise: &[(String, Vec<f64>)], wall_s: f64) -> String {
+    let mut md = String::new();
+    let _ = writeln!(md, "# Fidelity: render error against bytes\n");
+    let _ = writeln!(
+        md,
+        "{}; `ratfit bench fidelity{}`; {} threads; {:.0} s in all.\n",
+        utc_date(),
+        if args.quick { " --quick" } else { "" },
+        rayon::current_num_threads(),
+        wall_s
+    );
+    let _ = writeln!(
+        md,
+        "Mean and 99th-percentile CIEDE2000 over the sphere's pixels against the table's render \
+         (lights: three directional lights; sky: sky and ground, MIS). Relative error: luminance, \
+         over random direction pairs of the whole hemisphere with a table value above 1e-3 of its \
+         peak, by band of the larger elevation. Peak: the largest value on a dense grid of the \
+         hemisphere over the table's.\n"
+    );
+    let _ = writeln!(
+        md,
+        "| material | table vs itself (lights / sky) |\n|---|---|"
+    );
+    for (m, n) in noise {
+        let _ = writeln!(md, "| {m} | {:.3} / {:.3} |", n[0], n[1]);
+    }
+    let _ = writeln!(
+        md,
+        "\n| material | representation | bytes | fit s | dE lights (p99) | dE sky (p99) | rel 0-70 med / p90 | rel 70-80 med | rel 80-90 med | rel <80 med | peak x | note |\n|---|---|---|---|---|---|---|---|---|---|---|---|"
+    );
+    for r in rows {
+        let b = &r.hemisphere.bands;
+        let _ = writeln!(
+            md,
+            "| {} | {} | {} | {:.2} | {:.3} ({:.2}) | {:.3} ({:.2}) | {:.3} / {:.3} | {:.3} | {:.3} | {:.3} | {:.2} | {} |",
+            r.material,
+            r.representation,
+            r.bytes,
+            r.fit_s,
+            r.render.scenes[0].mean_de,
+            r.render.scenes[0].p99_de,
+            r.render.scenes[1].mean_de,
+            r.render.scenes[1].p99_de,
+            b[0].median,
+            b[0].p90,
+            b[1].median,
+            b[2].median,
+            r.hemisphere.median_below_80,
+            r.hemisphere.peak_ratio,
+            r.note
+        );
+    }
+    md
+}
+
+/// Checks a finished run: every file present, every figure finite.
+fn check(out: &Path, rows: &[Row], noise: &[(String, Vec<f64>)]) -> Vec<String> {
+    let mut problems = Vec::new();
+    for f in [
+        "results.csv",
+        "summary.md",
+        "de_vs_bytes.svg",
+        "de_vs_bytes.png",
+    ] {
+        if !out.join(f).is_file() {
+            problems.push(format!("{f} is missing"));
+        }
+    }
+    match std::fs::read_to_string(out.join("results.csv")) {
+        Ok(text) => {
+            let lines = text.lines().count();
+            if lines != rows.len() + 1 {
+                problems.push(format!(
+                    "results.csv has {} rows, expected {}",
+                    lines - 1,
+                    rows.len()
+                ));
+            }
+        }
+        Err(e) => problems.push(format!("results.csv: {e}")),
+    }
+    for (m, _) in noise {
+        let reps: Vec<&Row> = rows.iter().filter(|r| &r.material == m).collect();
+        if !reps
+            .iter()
+            .any(|r| r.representation.starts_with("rational"))
+        {
+            problems.push(format!("{m}: no rational representation was measured"));
+        }
+        if !reps.iter().any(|r| r.representation.starts_with("table")) {
+            problems.push(format!("{m}: no downsampled table was measured"));
+        }
+        for scene in ValidationScene::ALL {
+            if !out
+                .join(format!("{}-{}-table.png", slug(m), scene.name()))
+                .is_file()
+            {
+                problems.push(format!(
+                    "{m}: the table's {} image is missing",
+                    scene.name()
+                ));
+            }
+        }
+    }
+    for r in rows {
+        let figures = [
+            r.render.scenes[0].mean_de,
+            r.render.scenes[1].mean_de,
+            r.hemisphere.median_below_80,
+            r.hemisphere.peak_ratio,
+        ];
+        if figures.iter().any(|v| !v.is_finite() || *v < 0.0) {
+            problems.push(format!(
+                "{} / {}: a figure is not finite",
+                r.material, r.representation
+            ));
+        }
+        if r.representation.starts_with("rational") && r.note.contains("NOT verified") {
+            problems.push(format!(
+                "{} / {}: a fit is not verified",
+                r.material, r.representation
+            ));
+        }
+    }
+    problems
+}

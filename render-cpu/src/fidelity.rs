@@ -1,0 +1,373 @@
+//! Render error of a BRDF representation against its table, on the two
+//! validation scenes every fidelity figure of the project uses: a sphere
+//! under three directional lights and a sphere under a sky with a ground
+//! plane (direct lighting, light and cosine sampling combined by MIS).
+//!
+//! The table is rendered once per scene; each candidate is rendered with the
+//! same seed, and the mean and 99th-percentile CIEDE2000 over the object's
+//! pixels are reported. A second render of the table with another seed
+//! measures the noise floor of the comparison.
+
+use crate::compare::compare;
+use crate::image::Image;
+use crate::integrator::render;
+use crate::prepare::{prepare, RenderOptions};
+use crate::scene::SceneDescription;
+use crate::world::Scene;
+use crate::RenderError;
+use brdf::Brdf;
+use serde::Serialize;
+use std::path::Path;
+use std::sync::Arc;
+use std::time::Instant;
+
+/// The two validation scenes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ValidationScene {
+    /// The sphere of `scenes/sphere-lights.toml`: three directional lights.
+    Lights,
+    /// The sphere of `scenes/sphere-sky.toml`: a sky and a grey ground.
+    Sky,
+}
+
+impl ValidationScene {
+    /// Both scenes.
+    pub const ALL: [ValidationScene; 2] = [ValidationScene::Lights, ValidationScene::Sky];
+
+    /// Short name.
+    pub fn name(self) -> &'static str {
+        match self {
+            ValidationScene::Lights => "lights",
+            ValidationScene::Sky => "sky",
+        }
+    }
+
+    fn toml(self, size: usize, spp: usize) -> String {
+        let common = format!(
+            "[materials.probe]\nkind = \"lambert\"\nalbedo = [0.5, 0.5, 0.5]\n\
+             [[objects]]\nshape = \"sphere\"\ncenter = [0.0, 0.0, 0.0]\nradius = 1.0\nmaterial = \"probe\"\n"
+        );
+        match self {
+            ValidationScene::Lights => format!(
+                "[camera]\nfrom = [0.0, 0.0, 4.0]\nto = [0.0, 0.0, 0.0]\nfov_deg = 32.0\nwidth = {size}\nheight = {size}\n\
+                 [integrator]\nkind = \"direct\"\nspp = {spp}\n{common}\
+                 [[lights]]\nkind = \"directional\"\ndirection = [0.5, 0.6, 0.8]\nirradiance = [5.0, 5.0, 5.0]\n\
+                 [[lights]]\nkind = \"directional\"\ndirection = [-0.7, 0.1, 0.6]\nirradiance = [1.6, 1.6, 1.6]\n\
+                 [[lights]]\nkind = \"directional\"\ndirection = [0.1, -0.8, 0.3]\nirradiance = [1.2, 1.2, 1.2]\n"
+            ),
+            ValidationScene::Sky => format!(
+                "[camera]\nfrom = [0.0, 0.4, 4.0]\nto = [0.0, 0.0, 0.0]\nfov_deg = 32.0\nwidth = {size}\nheight = {size}\n\
+                 [integrator]\nkind = \"direct\"\nspp = {spp}\nsampler = \"tabulated\"\nmis = true\n{common}\
+                 [materials.ground]\nkind = \"lambert\"\nalbedo = [0.4, 0.4, 0.4]\n\
+                 [[objects]]\nshape = \"plane\"\npoint = [0.0, -1.0, 0.0]\nnormal = [0.0, 1.0, 0.0]\nmaterial = \"ground\"\n\
+                 [environment]\nkind = \"sky\"\nzenith = [0.9, 1.0, 1.3]\nhorizon = [1.6, 1.5, 1.3]\nground = [0.2, 0.18, 0.15]\n"
+            ),
+        }
+    }
+}
+
+/// Image size and samples of the validation renders.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct ValidationSettings {
+    /// Width and height in pixels.
+    pub size: usize,
+    /// Samples per pixel of the lights scene (pixel jitter only).
+    pub lights_spp: usize,
+    /// Samples per pixel of the sky scene.
+    pub sky_spp: usize,
+    /// Seed of the candidates' renders (the table's second render uses
+    /// `seed + 1`).
+    pub seed: u64,
+}
+
+impl Default for ValidationSettings {
+    /// 128 x 128 pixels, 1 spp at the pixel centres under the lights (no
+    /// noise at all), 64 under the sky.
+    fn default() -> Self {
+        Self {
+            size: 128,
+            lights_spp: 1,
+            sky_spp: 64,
+            seed: 1,
+        }
+    }
+}
+
+/// Render error on one scene.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct SceneError {
+    /// Mean CIEDE2000 over the pixels where either image is not black.
+    pub mean_de: f64,
+    /// 99th percentile of CIEDE2000 over the same pixels.
+    pub p99_de: f64,
+}
+
+/// A candidate's render errors, lights first.
+#[derive(Debug, Clone, Serialize)]
+pub struct RenderErrors {
+    /// Per scene, in [`ValidationScene::ALL`] order.
+    pub scenes: Vec<SceneError>,
+    /// The candidate's renders, same order.
+    #[serde(skip)]
+    pub images: Vec<Image>,
+    /// Render time in seconds (both scenes).
+    pub seconds: f64,
+}
+
+impl RenderErrors {
+    /// The larger mean CIEDE2000 of the two scenes.
+    pub fn worst_mean(&self) -> f64 {
+        self.scenes.iter().map(|s| s.mean_de).fold(0.0, f64::max)
+    }
+}
+
+/// The table's renders on both scenes, against which candidates are measured.
+pub struct Validator {
+    scenes: Vec<Scene>,
+    references: Vec<Image>,
+    /// Render error of the table against itself with another seed: the
+    /// comparison's noise floor.
+    pub noise: Vec<SceneError>,
+    /// The settings used.
+    pub settings: ValidationSettings,
+}
+
+fn scene_error(a: &Image, b: &Image) -> Result<SceneError, RenderError> {
+    // Over the object's pixels: covered means non-black in either image.
+    let (cmp, map) = compare(a, b, 1.0)?;
+    let mut covered: Vec<f64> = map
+        .iter()
+        .zip(a.pixels.iter().zip(&b.pixels))
+        .filter(|(_, (p, q))| p.iter().chain(q.iter()).any(|v| *v > 0.0))
+        .map(|(d, _)| *d)
+        .collect();
+    covered.sort_by(f64::total_cmp);
+    let p99 = covered
+        .get(((covered.len().max(1) - 1) as f64 * 0.99).round() as usize)
+        .copied()
+        .unwrap_or(0.0);
+    Ok(SceneError {
+        mean_de: cmp.covered_mean_de2000,
+        p99_de: p99,
+    })
+}
+
+impl Validator {
+    /// Renders `table` on both scenes (twice, with two seeds).
+    ///
+    /// # Errors
+    /// Invalid settings (zero size or samples).
+    pub fn new(table: Arc<dyn Brdf>, settings: ValidationSettings) -> Result<Self, RenderError> {
+        if settings.size == 0 || settings.lights_spp == 0 || settings.sky_spp == 0 {
+            return Err(crate::error::invalid(
+                "validation settings",
+                format!("{settings:?}: size and samples must be positive"),
+            ));
+        }
+        let mut scenes = Vec::new();
+        for kind in ValidationScene::ALL {
+            let spp = match kind {
+                ValidationScene::Lights => settings.lights_spp,
+                ValidationScene::Sky => settings.sky_spp,
+            };
+            let text = kind.toml(settings.size, spp);
+            let desc = SceneDescription::parse(&text, kind.name())?;
+            let options = RenderOptions {
+                no_cache: true,
+                seed: Some(settings.seed),
+                ..Default::default()
+            };
+            let (scene, _) = prepare(desc, Path::new("."), kind.name(), &options)?;
+            scenes.push(scene);
+        }
+        let mut v = Self {
+            scenes,
+            references: Vec::new(),
+            noise: Vec::new(),
+            settings,
+        };
+        // The sky is importance-sampled by the table's own tabulated
+        // inverse CDFs, combined with sky sampling by MIS, for every
+        // candidate alike (unbiased for any BRDF: the sky's density covers
+        // every direction); the same seed gives every candidate the same
+        // sample directions, so differences are not sampling noise.
+        let cdf_table = cdf::CdfTable::new(table.as_ref(), cdf::TableSettings::default())
+            .map_err(|e| crate::error::invalid("validation sampler", e.to_string()))?;
+        let sampler: Arc<dyn cdf::Sampler> = Arc::new(cdf::TabulatedSampler::new(cdf_table));
+        let sky = &mut v.scenes[1];
+        let m = sky.objects[0].material.expect("the sphere has a material");
+        sky.materials[m].sampler = sampler;
+        v.references = v.render_all(&table, settings.seed);
+        let again = v.render_all(&table, settings.seed + 1);
+        v.noise = v
+            .references
+            .iter()
+            .zip(&again)
+            .map(|(a, b)| scene_error(a, b))
+            .collect::<Result<_, _>>()?;
+        Ok(v)
+    }
+
+    fn render_all(&self, brdf: &Arc<dyn Brdf>, seed: u64) -> Vec<Image> {
+        self.scenes
+            .iter()
+            .map(|s| {
+                let mut scene = s.clone();
+                scene.integrator.seed = seed;
+                // The sphere is the first object.
+                let m = scene.objects[0]
+                    .material
+                    .expect("the sphere has a material");
+                scene.materials[m].brdf = brdf.clone();
+                render(&scene, &|_, _| {}).image
+            })
+            .collect()
+    }
+
+    /// The table's renders, lights first.
+    pub fn references(&self) -> &[Image] {
+        &self.references
+    }
+
+    /// Renders `candidate` with the references' seed and compares.
+    ///
+    /// # Errors
+    /// Never in practice (images of one size); kept for the comparison's
+    /// checks.
+    pub fn measure(&self, candidate: Arc<dyn Brdf>) -> Result<RenderErrors, RenderError> {
+        let start = Instant::now();
+        let images = self.render_all(&candidate, self.settings.seed);
+        let scenes = self
+            .references
+            .iter()
+            .zip(&images)
+            .map(|(a, b)| scene_error(a, b))
+            .collect::<Result<_, _>>()?;
+        Ok(RenderErrors {
+            scenes,
+            images,
+            seconds: start.elapsed().as_secs_f64(),
+        })
+    }
+}
+
+/// What [`fit_to_target`] reached.
+#[derive(Debug, Clone, Serialize)]
+pub struct TargetReport {
+    /// The target: mean CIEDE2000 on both validation scenes.
+    pub target_de: f64,
+    /// Whether the chosen fit reaches it.
+    pub reached: bool,
+    /// The perceptual half-width of the chosen fit.
+    pub rel_tol: f64,
+    /// Bytes of the chosen fit (f32).
+    pub bytes: usize,
+    /// Its render errors, lights first.
+    pub scenes: Vec<SceneError>,
+    /// The table against itself with another seed (noise of the comparison).
+    pub noise: Vec<SceneError>,
+    /// Every tolerance tried: `(rel_tol, bytes, worse mean CIEDE2000)`.
+    pub tried: Vec<(f64, usize, f64)>,
+    /// Total time in seconds (fits and renders).
+    pub seconds: f64,
+}
+
+impl std::fmt::Display for TargetReport {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        writeln!(
+            f,
+            "target mean CIEDE2000 <= {}: {} with perceptual intervals of +-{}% ({} bytes)",
+            self.target_de,
+            if self.reached {
+                "reached"
+            } else {
+                "NOT reached; the closest fit within the budget"
+            },
+            self.rel_tol * 100.0,
+            self.bytes
+        )?;
+        for (k, scene) in ValidationScene::ALL.iter().enumerate() {
+            writeln!(
+                f,
+                "  {:<6} mean CIEDE2000 {:.3}, p99 {:.2} (table against itself: {:.3})",
+                scene.name(),
+                self.scenes[k].mean_de,
+                self.scenes[k].p99_de,
+                self.noise[k].mean_de
+            )?;
+        }
+        for (t, b, de) in &self.tried {
+            writeln!(
+                f,
+                "  tried +-{}%: {b} bytes, worse mean CIEDE2000 {de:.3}",
+                t * 100.0
+            )?;
+        }
+        write!(f, "  {:.1} s", self.seconds)
+    }
+}
+
+/// The smallest perceptual fit (3-D, whole hemisphere) whose validation
+/// renders reach mean CIEDE2000 `<= target_de` on both scenes: tolerances
+/// from `+-16%` down to `+-2%` are tried in turn (looser intervals give
+/// fewer coefficients), stopping at the first that reaches the target or
+/// when `budget_s` is spent; when none does, the fit with the lowest error
+/// is returned and the report says so. `base` gives the engine, grid and
+/// design (its relative half-width is replaced).
+///
+/// # Errors
+/// A non-positive target, or a fit or render that fails.
+pub fn fit_to_target(
+    table: Arc<dyn Brdf>,
+    target_de: f64,
+    base: &brdf::BrdfFitSettings,
+    validation: ValidationSettings,
+    budget_s: f64,
+) -> Result<(brdf::FittedBrdf, TargetReport), RenderError> {
+    let start = Instant::now();
+    if !(target_de > 0.0 && target_de.is_finite()) {
+        return Err(crate::error::invalid(
+            "target_de",
+            format!("{target_de} is not a positive number"),
+        ));
+    }
+    let validator = Validator::new(table.clone(), validation)?;
+    let design = base.design().copied().unwrap_or_default();
+    let mut best: Option<(brdf::FittedBrdf, RenderErrors, f64)> = None;
+    let mut tried = Vec::new();
+    for t in [0.16, 0.08, 0.04, 0.02] {
+        let settings = base.clone().with_design(brdf::PerceptualBounds {
+            rel_tol: t,
+            ..design
+        });
+        let material_error = |e| RenderError::Material {
+            name: table.name(),
+            source: e,
+        };
+        let (fitted, _) = brdf::fit_brdf(table.as_ref(), &settings).map_err(material_error)?;
+        let errors = validator.measure(Arc::new(crate::world::FitInDomain::new(fitted.clone())))?;
+        let worst = errors.worst_mean();
+        tried.push((t, fitted.byte_size_f32(), worst));
+        let better = best.as_ref().is_none_or(|b| worst < b.1.worst_mean());
+        let reached = worst <= target_de;
+        if better || reached {
+            best = Some((fitted, errors, t));
+        }
+        if reached || start.elapsed().as_secs_f64() > budget_s {
+            break;
+        }
+    }
+    let (fitted, errors, rel_tol) = best.expect("one tolerance is always tried");
+    let report = TargetReport {
+        target_de,
+        reached: errors.worst_mean() <= target_de,
+        rel_tol,
+        bytes: fitted.byte_size_f32(),
+        scenes: errors.scenes.clone(),
+        noise: validator.noise.clone(),
+        tried,
+        seconds: start.elapsed().as_secs_f64(),
+    };
+    Ok((fitted, report))
+}

@@ -1,0 +1,74 @@
+//! A scene whose fitted material asks for a render error (`target_de`)
+//! prepares and renders on a glossy measured material.
+
+use render_cpu::{prepare, render, RenderOptions, SceneDescription};
+use std::path::{Path, PathBuf};
+
+fn data_dir() -> Option<PathBuf> {
+    let dir = std::env::var_os("RATFIT_DATA")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/data"));
+    dir.is_dir().then_some(dir)
+}
+
+#[test]
+fn a_target_de_scene_renders_a_glossy_rgl_file() {
+    let Some(data) = data_dir() else {
+        eprintln!("SKIPPED a_target_de_scene_renders_a_glossy_rgl_file: no data directory (set RATFIT_DATA)");
+        return;
+    };
+    let path = data.join("rgl/vch_golden_yellow_rgb.bsdf");
+    let text = format!(
+        r#"
+        [camera]
+        from = [0.0, 0.0, 4.0]
+        to = [0.0, 0.0, 0.0]
+        fov_deg = 32.0
+        width = 32
+        height = 32
+        [integrator]
+        kind = "direct"
+        spp = 1
+        [materials.table]
+        kind = "measured"
+        format = "rgl"
+        path = "{}"
+        [materials.fit]
+        kind = "fitted"
+        source = "table"
+        max_coeffs = 40
+        target_de = 4.0
+        [[objects]]
+        shape = "sphere"
+        center = [0.0, 0.0, 0.0]
+        radius = 1.0
+        material = "fit"
+        [[lights]]
+        kind = "directional"
+        direction = [0.5, 0.6, 0.8]
+        irradiance = [5.0, 5.0, 5.0]
+        "#,
+        path.display()
+    );
+    let scene = SceneDescription::parse(&text, "target").unwrap();
+    let options = RenderOptions {
+        no_cache: true,
+        ..Default::default()
+    };
+    let (scene, log) = prepare(scene, Path::new("."), "target", &options).unwrap();
+    let line = log
+        .entries
+        .iter()
+        .map(|e| e.why.clone())
+        .find(|d| d.contains("target CIEDE2000"))
+        .expect("the log states the target and what was reached");
+    eprintln!("{line}");
+    let out = render(&scene, &|_, _| {});
+    let lit = out.image.pixels.iter().filter(|p| p[1] > 0.0).count();
+    assert!(lit > 100, "{lit} lit pixels");
+    assert!(out
+        .image
+        .pixels
+        .iter()
+        .all(|p| p.iter().all(|v| v.is_finite())));
+}
