@@ -92,6 +92,12 @@ impl AltaRational {
     /// `theta_h`, cosines: refit with radians) or in a basis other than
     /// Chebyshev.
     pub fn from_fitted(fit: &FittedBrdf) -> Result<Self, BrdfError> {
+        if !fit.mode.is_rgb() {
+            return Err(BrdfError::Invalid {
+                name: "ALTA export",
+                reason: "ALTA rational functions hold one function per RGB channel; this fit is in the luminance-chroma mode (refit with the rgb mode)".into(),
+            });
+        }
         if fit.reduction.coordinates != Coordinates::Radians {
             return Err(BrdfError::Invalid {
                 name: "ALTA export",

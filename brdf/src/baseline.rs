@@ -231,7 +231,9 @@ pub fn fit_ggx(material: &dyn Brdf) -> GgxFit {
     use std::f64::consts::PI;
     let start = Instant::now();
     let (nh, nd, np) = (24usize, 24usize, 12usize);
-    let mut rows: Vec<([f64; 3], [f64; 3], [f64; 3], f64)> = Vec::new();
+    // (wi, wo, value, cos_i cos_o) per grid cell.
+    type Row = ([f64; 3], [f64; 3], [f64; 3], f64);
+    let mut rows: Vec<Row> = Vec::new();
     for i in 0..nh {
         for j in 0..nd {
             for k in 0..np {

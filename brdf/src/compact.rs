@@ -3,6 +3,7 @@
 //! WGSL/GLSL, so the f32 path here and the shaders compute the same thing in
 //! the same order.
 
+use crate::colour::ColourMode;
 use crate::fitting::FittedBrdf;
 use crate::geometry::Vec3;
 use crate::reduce::{Coordinates, Reduction};
@@ -40,8 +41,10 @@ pub struct CompactBrdf {
     pub dims: usize,
     /// Grazing cut in radians (`theta_d` is clamped to it).
     pub max_theta_d: f32,
-    /// Red, green, blue.
+    /// Red, green, blue, or what `mode` says.
     pub channels: Vec<CompactChannel>,
+    /// What the three functions are.
+    pub mode: ColourMode,
 }
 
 /// Univariate values `phi_0..=phi_deg` at `t` in f32 (the shaders' recurrences).
@@ -134,7 +137,8 @@ impl CompactChannel {
     }
 }
 
-/// Rusinkiewicz `(theta_h, theta_d, phi_d)` in f32, `phi_d` folded.
+/// Rusinkiewicz `(theta_h, theta_d, phi_d)` in f32, `phi_d` folded into
+/// `[0, pi]` by mirror symmetry.
 pub fn half_diff_f32(wi: [f32; 3], wo: [f32; 3]) -> (f32, f32, f32) {
     let h = [wi[0] + wo[0], wi[1] + wo[1], wi[2] + wo[2]];
     let n = (h[0] * h[0] + h[1] * h[1] + h[2] * h[2]).sqrt();
@@ -156,13 +160,8 @@ pub fn half_diff_f32(wi: [f32; 3], wo: [f32; 3]) -> (f32, f32, f32) {
     let (ct, st) = (h[2], s);
     let d = [a[0] * ct - a[2] * st, a[1], a[0] * st + a[2] * ct];
     let theta_d = elev(d);
-    let mut phi_d = d[1].atan2(d[0]);
-    if phi_d < 0.0 {
-        phi_d += PI;
-    }
-    if phi_d >= PI {
-        phi_d = 0.0;
-    }
+    // Folded by mirror symmetry into [0, pi] (see `HalfDiff::folded_phi_d`).
+    let phi_d = d[1].atan2(d[0]).abs();
     (theta_h, theta_d, phi_d)
 }
 
@@ -193,6 +192,7 @@ impl CompactBrdf {
             dims: f.reduction.dims(),
             max_theta_d: f.reduction.max_theta_d_deg.to_radians() as f32,
             channels,
+            mode: f.mode,
         }
     }
 
@@ -214,7 +214,8 @@ impl CompactBrdf {
             return [0.0; 3];
         }
         let x = self.coordinates(wi, wo);
-        [0, 1, 2].map(|c| self.channels[c].eval(&x[..self.dims]).max(0.0))
+        self.mode
+            .combine_f32([0, 1, 2].map(|c| self.channels[c].eval(&x[..self.dims])))
     }
 
     /// Evaluates many pairs (f32, batched, in parallel).
@@ -229,7 +230,8 @@ impl CompactBrdf {
     /// The compact binary form: magic `RFB1`, header (coordinates, dims,
     /// channels, flags; `max_theta_d`), then every channel (family, `n_p`,
     /// `n_q`, one byte per coordinate's degree weight when flag bit 0 is set,
-    /// domain and coefficients as f32). Unweighted fits leave the flags 0.
+    /// domain and coefficients as f32). Unweighted RGB fits leave the flags
+    /// 0; bit 1 marks the luminance-chroma mode.
     pub fn to_bytes(&self) -> Vec<u8> {
         let mut out = b"RFB1".to_vec();
         let coords = match self.coordinates {
@@ -241,7 +243,7 @@ impl CompactBrdf {
             .channels
             .iter()
             .any(|c| c.weights.iter().any(|&w| w != 1));
-        let flags = u8::from(weighted);
+        let flags = u8::from(weighted) | (u8::from(self.mode == ColourMode::LuminanceChroma) << 1);
         out.extend_from_slice(&[coords, self.dims as u8, self.channels.len() as u8, flags]);
         out.extend_from_slice(&self.max_theta_d.to_le_bytes());
         for c in &self.channels {
@@ -285,10 +287,14 @@ impl CompactBrdf {
         if !(1..=3).contains(&dims) {
             return Err(bad("dimension out of range"));
         }
-        let weighted = match b[7] {
-            0 => false,
-            1 => true,
-            _ => return Err(bad("unknown flags")),
+        if b[7] > 3 {
+            return Err(bad("unknown flags"));
+        }
+        let weighted = b[7] & 1 == 1;
+        let mode = if b[7] & 2 == 2 {
+            ColourMode::LuminanceChroma
+        } else {
+            ColourMode::Rgb
         };
         let max_theta_d = f32::from_le_bytes(b[8..12].try_into().expect("4 bytes"));
         let mut pos = 12;
@@ -346,6 +352,7 @@ impl CompactBrdf {
             return Err(bad("trailing bytes"));
         }
         Ok(Self {
+            mode,
             coordinates,
             dims,
             max_theta_d,

@@ -227,7 +227,8 @@ pub struct ChannelBounds {
     pub noise: f64,
     /// Cells whose half-width is the perceptual one.
     pub perceptual_cells: usize,
-    /// Cells whose half-width is the visibility floor.
+    /// Cells whose half-width is the visibility floor or the loosening
+    /// beyond the trusted elevations.
     pub floor_cells: usize,
     /// Cells whose half-width is the noise.
     pub noise_cells: usize,
@@ -273,7 +274,7 @@ impl Samples {
         } else {
             *weighted.select_nth_unstable_by(mid, f64::total_cmp).1
         };
-        if !(peak > 0.0) {
+        if peak.is_nan() || peak <= 0.0 {
             return Err(fit_err(rational_core::FitError::Empty));
         }
         let noise = estimate_noise(self, c);
@@ -316,9 +317,9 @@ impl Samples {
                 continue;
             }
             let h = perceptual.max(floor).max(scatter).max(untrusted);
-            if h == perceptual {
+            if perceptual >= floor && perceptual >= scatter && perceptual >= untrusted {
                 info.perceptual_cells += 1;
-            } else if h == floor {
+            } else if floor >= scatter || untrusted >= scatter {
                 info.floor_cells += 1;
             } else {
                 info.noise_cells += 1;

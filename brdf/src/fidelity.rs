@@ -9,12 +9,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
 
-/// Luminance weights of linear sRGB.
-const LUMINANCE: [f64; 3] = [0.2126, 0.7152, 0.0722];
-
-fn luminance(v: [f64; 3]) -> f64 {
-    LUMINANCE[0] * v[0] + LUMINANCE[1] * v[1] + LUMINANCE[2] * v[2]
-}
+use crate::colour::luminance;
 
 /// Relative errors over the direction pairs whose larger elevation falls in
 /// one band.
@@ -168,7 +163,7 @@ pub fn hemisphere_errors(
         .par_iter()
         .filter_map(|&(wi, wo)| {
             let t = luminance(table.eval(wi, wo));
-            if !(t > floor) {
+            if t.is_nan() || t <= floor {
                 return None;
             }
             let f = luminance(candidate.eval(wi, wo));

@@ -1,6 +1,7 @@
 //! Fitting the RGB channels of a BRDF and evaluating the fit.
 
 use crate::baseline::BaselineReport;
+use crate::colour::ColourMode;
 use crate::design::{ChannelBounds, PerceptualBounds};
 use crate::geometry::{HalfDiff, Vec3};
 use crate::reduce::{Reduction, Samples};
@@ -20,6 +21,7 @@ pub struct BrdfFitSettings {
     fit: FitSettings,
     baselines: bool,
     design: Option<PerceptualBounds>,
+    mode: ColourMode,
 }
 
 impl Default for BrdfFitSettings {
@@ -33,6 +35,7 @@ impl Default for BrdfFitSettings {
             noise_floor: 1e-2,
             baselines: true,
             design: None,
+            mode: ColourMode::Rgb,
             fit: FitSettings::default()
                 .with_coeff_range(2, 60)
                 .expect("valid range"),
@@ -102,6 +105,17 @@ impl BrdfFitSettings {
         self
     }
 
+    /// What the three fitted functions are (default RGB).
+    pub fn with_colour_mode(mut self, mode: ColourMode) -> Self {
+        self.mode = mode;
+        self
+    }
+
+    /// The colour mode.
+    pub fn colour_mode(&self) -> ColourMode {
+        self.mode
+    }
+
     /// The perceptual design, when in use.
     pub fn design(&self) -> Option<&PerceptualBounds> {
         self.design.as_ref()
@@ -124,8 +138,11 @@ impl BrdfFitSettings {
 pub struct FittedBrdf {
     /// What the functions were fitted to.
     pub reduction: Reduction,
-    /// Red, green and blue.
+    /// Red, green and blue, or what `mode` says.
     pub channels: Vec<RationalFunction>,
+    /// What the three functions are (RGB unless stated).
+    #[serde(default, skip_serializing_if = "ColourMode::is_rgb")]
+    pub mode: ColourMode,
     /// Source material.
     pub name: String,
 }
@@ -142,10 +159,11 @@ impl FittedBrdf {
             .map(hd.theta_h, td, hd.folded_phi_d(), self.reduction.dims())
     }
 
-    /// Evaluates every channel in f64; negative values (possible only between
-    /// samples) are clamped to zero.
+    /// Evaluates every channel in f64 and makes RGB by the colour mode;
+    /// negative values (possible only between samples) are clamped to zero.
     pub fn eval_coords(&self, x: &[f64]) -> [f64; 3] {
-        [0, 1, 2].map(|c| self.channels[c].eval(x).max(0.0))
+        self.mode
+            .combine([0, 1, 2].map(|c| self.channels[c].eval(x)))
     }
 
     /// Evaluates the fit at many direction pairs in parallel.
@@ -383,6 +401,13 @@ pub fn fit_samples(
             ),
         });
     }
+    let derived;
+    let samples = if settings.mode.is_rgb() {
+        samples
+    } else {
+        derived = samples.in_colour_mode(settings.mode);
+        &derived
+    };
     let results: Vec<Result<(RationalFunction, ChannelReport), BrdfError>> = (0..3)
         .into_par_iter()
         .map(|c| fit_channel(samples, c, settings))
@@ -397,6 +422,7 @@ pub fn fit_samples(
     let fitted = FittedBrdf {
         reduction: settings.reduction,
         channels,
+        mode: settings.mode,
         name: name.to_string(),
     };
     // Errors over every valid sample above the floor, grazing ones included.
@@ -413,6 +439,8 @@ pub fn fit_samples(
             let x = r
                 .coordinates
                 .map(th, td.min(r.max_theta_d_deg.to_radians()), pd, r.dims());
+            // Each function against its own data (luminance or a ratio in
+            // the luminance-chroma mode).
             let e = (fitted.channels[c].eval(&x).max(0.0) / row.value[c] - 1.0).abs();
             max = max.max(e);
             sum += e;
@@ -445,7 +473,7 @@ fn fit_channel(
     c: usize,
     s: &BrdfFitSettings,
 ) -> Result<(RationalFunction, ChannelReport), BrdfError> {
-    let channel = ['r', 'g', 'b'][c];
+    let channel = s.mode.names()[c];
     let (data, used, bounds) = match &s.design {
         Some(design) => {
             let (d, u, b) = samples.channel_perceptual(c, design)?;
@@ -507,7 +535,7 @@ fn fit_channel(
         bounds,
         // The baselines divide by the value: plain relative intervals only
         // (the fidelity benchmark compares the analytic peer by its renders).
-        baselines: if s.baselines && s.design.is_none() {
+        baselines: if s.baselines && s.design.is_none() && s.mode.is_rgb() {
             vec![
                 crate::baseline::polynomial(
                     &data,

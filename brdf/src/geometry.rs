@@ -101,12 +101,16 @@ impl HalfDiff {
         (wi, wo)
     }
 
-    /// `phi_d` folded into `[0, pi)`: swapping the two directions adds `pi`
-    /// to `phi_d`, so a reciprocal BRDF depends only on the folded angle.
+    /// `phi_d` folded into `[0, pi]` by mirror symmetry, `|phi_d|` with
+    /// `phi_d` in `(-pi, pi]`: mirroring both directions across the plane
+    /// of incidence negates `phi_d`, so an isotropic BRDF depends only on
+    /// the folded angle, and the fold is continuous. (Folding by `pi`
+    /// instead assumes reciprocity, which measured tables do not have, and
+    /// puts a seam where `phi_d` crosses 0.)
     pub fn folded_phi_d(self) -> f64 {
-        let p = self.phi_d.rem_euclid(PI);
-        if p >= PI {
-            0.0
+        let p = self.phi_d.rem_euclid(2.0 * PI);
+        if p > PI {
+            2.0 * PI - p
         } else {
             p
         }
@@ -139,13 +143,30 @@ mod tests {
     }
 
     #[test]
-    fn swapping_directions_shifts_phi_d_by_pi() {
+    fn mirrored_directions_share_the_folded_phi_d_and_the_fold_is_continuous() {
+        let mirror = |d: Vec3| [d[0], -d[1], d[2]];
         let wi = from_spherical(0.4, 0.3);
         let wo = from_spherical(0.9, 2.1);
         let a = HalfDiff::from_directions(wi, wo);
-        let b = HalfDiff::from_directions(wo, wi);
+        let b = HalfDiff::from_directions(mirror(wi), mirror(wo));
         assert!((a.theta_h - b.theta_h).abs() < 1e-12 && (a.theta_d - b.theta_d).abs() < 1e-12);
         assert!((a.folded_phi_d() - b.folded_phi_d()).abs() < 1e-12);
+        // Swapping the directions adds pi: not the same angle for a
+        // non-reciprocal table.
+        let c = HalfDiff::from_directions(wo, wi);
+        assert!((a.folded_phi_d() + c.folded_phi_d() - PI).abs() < 1e-12);
+        // Across phi_d = 0 and pi the folded angle changes continuously.
+        for p in [0.0, PI] {
+            for eps in [1e-6, -1e-6] {
+                let h = HalfDiff {
+                    theta_h: 0.3,
+                    phi_h: 0.0,
+                    theta_d: 0.5,
+                    phi_d: p + eps,
+                };
+                assert!((h.folded_phi_d() - p).abs() < 2e-6, "{p} {eps}");
+            }
+        }
     }
 
     #[test]

@@ -25,6 +25,7 @@
 mod alta_rational;
 mod analytic;
 pub mod baseline;
+mod colour;
 pub mod compact;
 mod design;
 mod downsample;
@@ -41,6 +42,7 @@ pub mod shader;
 
 pub use alta_rational::{AltaChannel, AltaRational};
 pub use analytic::{schlick, AshikhminShirley, BlinnPhong, CookTorranceGgx, Lambert};
+pub use colour::{luminance, ColourMode, LUMINANCE_WEIGHTS};
 pub use compact::{CompactBrdf, CompactChannel};
 pub use design::{estimate_noise, ChannelBounds, NoiseEstimate, PerceptualBounds};
 pub use downsample::DownsampledTable;

@@ -260,6 +260,34 @@ pub struct Samples {
 }
 
 impl Samples {
+    /// The same cells with the values of a colour mode's functions (for
+    /// luminance-chroma: `Y`, `r / Y`, `b / Y`; NaN where `Y` is not
+    /// positive, which the interval builders leave out). Spreads keep the
+    /// interval of the luminance and the value of the ratios.
+    pub fn in_colour_mode(&self, mode: crate::ColourMode) -> Samples {
+        let split = |v: [f64; 3]| mode.split(v).map(|x| x.unwrap_or(f64::NAN));
+        let rows = self
+            .rows
+            .iter()
+            .map(|r| {
+                let value = split(r.value);
+                let (mut lo, mut hi) = (value, value);
+                lo[0] = split(r.lo)[0];
+                hi[0] = split(r.hi)[0];
+                SampleRow {
+                    value,
+                    lo,
+                    hi,
+                    ..r.clone()
+                }
+            })
+            .collect();
+        Samples {
+            dims: self.dims,
+            rows,
+        }
+    }
+
     /// Interval data of channel `c`: half-width `max(t |v|, floor * median)`
     /// (relative intervals with a noise floor, `median` the channel's median
     /// fitted value, robust to specular peaks; `floor = 0` gives purely

@@ -258,6 +258,7 @@ pub struct RglBrdf {
     vndf: Marginal2D,
     rgb: Marginal2D,
     jacobian: bool,
+    view_as_incident: bool,
 }
 
 fn field<'a>(
@@ -350,6 +351,7 @@ impl RglBrdf {
         }
         let params2 = vec![phi_i.data.clone(), theta_i.data.clone()];
         Ok(Self {
+            view_as_incident: false,
             name,
             description,
             ndf: Marginal2D::new(&ndf.data, ndf.shape[1], ndf.shape[0], vec![], false),
@@ -390,11 +392,27 @@ fn phi2u(phi: f64) -> f64 {
     (phi + PI) / (2.0 * PI)
 }
 
+impl RglBrdf {
+    /// The other convention: the viewer in the table's incident slot, as
+    /// Mitsuba 3's path tracer evaluates these files (`eval(wi, wo)` then
+    /// looks the table up at `(wo, wi)`). The default keeps the measured
+    /// illumination direction at `wi`, the light.
+    pub fn with_view_as_incident(mut self, on: bool) -> Self {
+        self.view_as_incident = on;
+        self
+    }
+}
+
 impl Brdf for RglBrdf {
     fn eval(&self, wi: Vec3, wo: Vec3) -> [f64; 3] {
         if wi[2] <= 0.0 || wo[2] <= 0.0 {
             return [0.0; 3];
         }
+        let (wi, wo) = if self.view_as_incident {
+            (wo, wi)
+        } else {
+            (wi, wo)
+        };
         let m = normalize([wi[0] + wo[0], wi[1] + wo[1], wi[2] + wo[2]]);
         let (theta_i, phi_i) = to_spherical(wi);
         let (theta_m, phi_m) = to_spherical(m);

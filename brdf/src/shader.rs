@@ -3,6 +3,7 @@
 //! recurrences and the coefficients inlined as literals. The operations and
 //! their order mirror [`crate::CompactBrdf::eval`], the library's f32 path.
 
+use crate::colour::ColourMode;
 use crate::compact::{CompactBrdf, CompactChannel};
 use crate::reduce::Coordinates;
 use crate::BrdfError;
@@ -212,8 +213,7 @@ fn source_with_prefix(b: &CompactBrdf, l: Language, prefix: &str) -> String {
         decl(l, "phi_d", f, true),
         s.atan2
     );
-    out += "    if (phi_d < 0.0) { phi_d = phi_d + 3.14159265358979; }\n";
-    out += "    if (phi_d >= 3.14159265358979) { phi_d = 0.0; }\n";
+    out += "    phi_d = abs(phi_d);\n";
     let (a, bb) = match b.coordinates {
         Coordinates::Radians => ("theta_h".to_string(), "theta_d".to_string()),
         Coordinates::SqrtThetaH => (
@@ -235,9 +235,32 @@ fn source_with_prefix(b: &CompactBrdf, l: Language, prefix: &str) -> String {
     let calls: Vec<String> = (0..b.channels.len())
         .map(|k| format!("{prefix}_channel_{k}(x)"))
         .collect();
-    out += &format!(
-        "    return max({v3}({}), {v3}(0.0, 0.0, 0.0));\n}}\n",
-        calls.join(", ")
-    );
+    match b.mode {
+        ColourMode::Rgb => {
+            out += &format!(
+                "    return max({v3}({}), {v3}(0.0, 0.0, 0.0));\n}}\n",
+                calls.join(", ")
+            );
+        }
+        ColourMode::LuminanceChroma => {
+            // Luminance, then the ratios r / Y and b / Y; green from Y.
+            let [wr, wg, wb] = crate::colour::LUMINANCE_WEIGHTS.map(|w| lit(w as f32));
+            let f = s.float;
+            out += &format!("    {} = max({}, 0.0);\n", decl(l, "y", f, false), calls[0]);
+            out += &format!(
+                "    {} = y * max({}, 0.0);\n",
+                decl(l, "r", f, false),
+                calls[1]
+            );
+            out += &format!(
+                "    {} = y * max({}, 0.0);\n",
+                decl(l, "b", f, false),
+                calls[2]
+            );
+            out += &format!(
+                "    return {v3}(r, max((y - {wr} * r - {wb} * b) / {wg}, 0.0), b);\n}}\n"
+            );
+        }
+    }
     out
 }

@@ -2,8 +2,8 @@
 
 use brdf::shader::{shader_source, shader_source_named, Language};
 use brdf::{
-    compact::to_f32, fit_brdf, from_spherical, BlinnPhong, BrdfFitSettings, CompactBrdf,
-    CookTorranceGgx, Coordinates, FittedBrdf, Reduction, ReductionKind,
+    compact::to_f32, fit_brdf, from_spherical, BlinnPhong, BrdfFitSettings, ColourMode,
+    CompactBrdf, CookTorranceGgx, Coordinates, FittedBrdf, Reduction, ReductionKind,
 };
 
 fn fits() -> Vec<FittedBrdf> {
@@ -47,6 +47,14 @@ fn fits() -> Vec<FittedBrdf> {
         };
         out.push(f);
     }
+    // The luminance-chroma mode: every export and evaluator combines the
+    // three functions the same way.
+    let s = BrdfFitSettings::default()
+        .with_reduction(Reduction::default().with_resolution(24, 24))
+        .with_colour_mode(ColourMode::LuminanceChroma);
+    let (f, _) = fit_brdf(&m, &s).unwrap();
+    assert_eq!(f.mode, ColourMode::LuminanceChroma);
+    out.push(f);
     out
 }
 
@@ -114,7 +122,13 @@ fn compact_binary_round_trips() {
         assert_eq!(back.to_bytes(), bytes);
         assert!(bytes.len() < 12 + 3 * (5 + 3 + 4 * (6 + 60)));
         let weighted = f.channels.iter().any(|r| r.basis().is_weighted());
-        assert_eq!(bytes[7], u8::from(weighted), "flags byte");
+        let chroma = f.mode == ColourMode::LuminanceChroma;
+        assert_eq!(
+            bytes[7],
+            u8::from(weighted) | (u8::from(chroma) << 1),
+            "flags byte"
+        );
+        assert_eq!(back.mode, f.mode);
         if weighted {
             assert_eq!(back.channels[0].weights, vec![1, 2, 2]);
             // The first channel's weights follow its family, n_p and n_q.
@@ -208,6 +222,11 @@ fn alta_export_reads_back_and_evaluates_the_same() {
     std::fs::create_dir_all(&dir).unwrap();
     for f in fits() {
         let exported = brdf::AltaRational::from_fitted(&f);
+        if !f.mode.is_rgb() {
+            let e = exported.unwrap_err().to_string();
+            assert!(e.contains("luminance-chroma"), "{e}");
+            continue;
+        }
         if f.reduction.coordinates != Coordinates::Radians {
             let e = exported.unwrap_err().to_string();
             assert!(e.contains("radians"), "{e}");

@@ -83,6 +83,10 @@ pub struct FitArgs {
     /// cell of the hemisphere constrained (no elevation or grazing cut).
     #[arg(long)]
     perceptual: bool,
+    /// What the three fitted functions are: rgb (one per channel) or
+    /// luminance-chroma (the luminance, then r/Y and b/Y).
+    #[arg(long, default_value = "rgb")]
+    colour: brdf::ColourMode,
     /// Print the report as JSON.
     #[arg(long)]
     json: bool,
@@ -163,6 +167,7 @@ pub fn run_fit(args: FitArgs) -> Result<()> {
         .with_reduction(reduction(&args)?)
         .with_rel_tol(args.rel_tol)?
         .with_noise_floor(args.noise_floor)?
+        .with_colour_mode(args.colour)
         .with_fit_settings(fit_settings);
     if args.perceptual {
         let whole = settings.reduction().whole_hemisphere();
@@ -213,6 +218,7 @@ fn run_fit_target(args: &FitArgs, fit_settings: FitSettings, target: f64) -> Res
     let settings = BrdfFitSettings::default()
         .with_reduction(reduction)
         .with_baselines(false)
+        .with_colour_mode(args.colour)
         .with_fit_settings(fit_settings);
     let material: std::sync::Arc<dyn Brdf> = load_material(&args.material, &args.format)?.into();
     let (fitted, target_report) = render_cpu::fidelity::fit_to_target(

@@ -44,10 +44,8 @@ impl ValidationScene {
     }
 
     fn toml(self, size: usize, spp: usize) -> String {
-        let common = format!(
-            "[materials.probe]\nkind = \"lambert\"\nalbedo = [0.5, 0.5, 0.5]\n\
-             [[objects]]\nshape = \"sphere\"\ncenter = [0.0, 0.0, 0.0]\nradius = 1.0\nmaterial = \"probe\"\n"
-        );
+        let common = "[materials.probe]\nkind = \"lambert\"\nalbedo = [0.5, 0.5, 0.5]\n\
+             [[objects]]\nshape = \"sphere\"\ncenter = [0.0, 0.0, 0.0]\nradius = 1.0\nmaterial = \"probe\"\n";
         match self {
             ValidationScene::Lights => format!(
                 "[camera]\nfrom = [0.0, 0.0, 4.0]\nto = [0.0, 0.0, 0.0]\nfov_deg = 32.0\nwidth = {size}\nheight = {size}\n\

@@ -127,6 +127,7 @@ fn synthetic(family: BasisFamily, coordinates: Coordinates, dims: usize, seed: u
         })
         .collect();
     CompactBrdf {
+        mode: brdf::ColourMode::Rgb,
         coordinates,
         dims,
         max_theta_d,
@@ -223,6 +224,7 @@ fn gpu_coordinates_match_the_f64_half_difference_angles() {
         }
     };
     let fit = CompactBrdf {
+        mode: brdf::ColourMode::Rgb,
         coordinates: Coordinates::Radians,
         dims: 3,
         max_theta_d: pi,

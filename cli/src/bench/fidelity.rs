@@ -13,7 +13,7 @@ use super::summary::utc_date;
 use crate::chart::{pareto_front, Figure, Panel};
 use anyhow::{bail, Context, Result};
 use brdf::fidelity::{hemisphere_errors, HemisphereErrors, HemisphereSettings};
-use brdf::{Brdf, DownsampledTable, MerlBrdf, RglBrdf};
+use brdf::{Brdf, ColourMode, DownsampledTable, MerlBrdf, RglBrdf};
 use clap::Args;
 use render_cpu::fidelity::{RenderErrors, ValidationScene, ValidationSettings, Validator};
 use render_cpu::{false_colour, FitInDomain, Image};
@@ -139,7 +139,7 @@ fn rational_reps(
     if plan.perceptual_2d {
         let start = Instant::now();
         let t = plan.tols.iter().copied().fold(0.0, f64::max).min(0.08);
-        let r = rational_mode::fit_perceptual(table, 2, t, 90, plan.max_coeffs);
+        let r = rational_mode::fit_perceptual(table, 2, t, 90, plan.max_coeffs, ColourMode::Rgb);
         out.push((
             format!("rational 2-D perceptual {}%", t * 100.0),
             r,
@@ -147,13 +147,26 @@ fn rational_reps(
         ));
     }
     for &t in &plan.tols {
-        let start = Instant::now();
-        let r = rational_mode::fit_perceptual(table, 3, t, plan.resolution_3d, plan.max_coeffs);
-        out.push((
-            format!("rational 3-D perceptual {}%", t * 100.0),
-            r,
-            start.elapsed().as_secs_f64(),
-        ));
+        for mode in [ColourMode::Rgb, ColourMode::LuminanceChroma] {
+            let start = Instant::now();
+            let r = rational_mode::fit_perceptual(
+                table,
+                3,
+                t,
+                plan.resolution_3d,
+                plan.max_coeffs,
+                mode,
+            );
+            let what = match mode {
+                ColourMode::Rgb => "rgb",
+                ColourMode::LuminanceChroma => "luminance-chroma",
+            };
+            out.push((
+                format!("rational 3-D {what} {}%", t * 100.0),
+                r,
+                start.elapsed().as_secs_f64(),
+            ));
+        }
     }
     out
 }
@@ -162,7 +175,8 @@ fn rational_reps(
 mod rational_mode {
     use anyhow::Result;
     use brdf::{
-        fit_brdf, Brdf, BrdfFitSettings, FittedBrdf, PerceptualBounds, Reduction, ReductionKind,
+        fit_brdf, Brdf, BrdfFitSettings, ColourMode, FittedBrdf, PerceptualBounds, Reduction,
+        ReductionKind,
     };
     use rational_core::{FitSettings, Search};
 
@@ -222,6 +236,7 @@ mod rational_mode {
         rel_tol: f64,
         resolution: usize,
         max_coeffs: usize,
+        mode: ColourMode,
     ) -> Result<(FittedBrdf, String)> {
         let kind = if dims == 3 {
             ReductionKind::Full3d
@@ -236,6 +251,7 @@ mod rational_mode {
         let settings = BrdfFitSettings::default()
             .with_reduction(reduction)
             .with_design(PerceptualBounds::default().with_rel_tol(rel_tol)?)
+            .with_colour_mode(mode)
             .with_baselines(false)
             .with_fit_settings(engine(max_coeffs)?);
         let (f, r) = fit_brdf(table, &settings)?;

@@ -1,0 +1,119 @@
+//! How the three fitted functions of a BRDF make RGB.
+//!
+//! Most materials change colour slowly: fitting red, green and blue each at
+//! full budget spends bytes three times on the same shape, and independent
+//! errors in the three channels show as colour shifts. The
+//! luminance-chroma mode fits the luminance `Y` with the full budget and
+//! the ratios `r / Y` and `b / Y` (smooth where the colour is) as separate
+//! functions; green follows from `Y`.
+
+use serde::{Deserialize, Serialize};
+
+/// Luminance weights of linear sRGB (Rec. 709).
+pub const LUMINANCE_WEIGHTS: [f64; 3] = [0.2126, 0.7152, 0.0722];
+
+/// Luminance of a linear sRGB triple.
+pub fn luminance(v: [f64; 3]) -> f64 {
+    LUMINANCE_WEIGHTS[0] * v[0] + LUMINANCE_WEIGHTS[1] * v[1] + LUMINANCE_WEIGHTS[2] * v[2]
+}
+
+/// What the three fitted functions are.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ColourMode {
+    /// Red, green and blue.
+    #[default]
+    Rgb,
+    /// Luminance `Y`, then `r / Y` and `b / Y`.
+    LuminanceChroma,
+}
+
+impl ColourMode {
+    /// Whether this is [`ColourMode::Rgb`] (serialisation skips the default).
+    pub fn is_rgb(&self) -> bool {
+        *self == ColourMode::Rgb
+    }
+
+    /// RGB from the three functions' values, negative parts clamped to zero.
+    pub fn combine(self, v: [f64; 3]) -> [f64; 3] {
+        match self {
+            ColourMode::Rgb => v.map(|x| x.max(0.0)),
+            ColourMode::LuminanceChroma => {
+                let y = v[0].max(0.0);
+                let (r, b) = (y * v[1].max(0.0), y * v[2].max(0.0));
+                let [wr, wg, wb] = LUMINANCE_WEIGHTS;
+                [r, ((y - wr * r - wb * b) / wg).max(0.0), b]
+            }
+        }
+    }
+
+    /// [`ColourMode::combine`] in f32, in the order the shaders use.
+    pub fn combine_f32(self, v: [f32; 3]) -> [f32; 3] {
+        match self {
+            ColourMode::Rgb => v.map(|x| x.max(0.0)),
+            ColourMode::LuminanceChroma => {
+                let y = v[0].max(0.0);
+                let (r, b) = (y * v[1].max(0.0), y * v[2].max(0.0));
+                let w = LUMINANCE_WEIGHTS.map(|x| x as f32);
+                [r, ((y - w[0] * r - w[2] * b) / w[1]).max(0.0), b]
+            }
+        }
+    }
+
+    /// The three functions' target values for an RGB triple; `None` for
+    /// the chroma ratios where the luminance is not positive.
+    pub fn split(self, rgb: [f64; 3]) -> [Option<f64>; 3] {
+        match self {
+            ColourMode::Rgb => rgb.map(Some),
+            ColourMode::LuminanceChroma => {
+                let y = luminance(rgb);
+                let ratio = |v: f64| (y > 0.0 && y.is_finite()).then(|| v / y);
+                [Some(y), ratio(rgb[0]), ratio(rgb[2])]
+            }
+        }
+    }
+
+    /// The functions' names, for reports.
+    pub fn names(self) -> [char; 3] {
+        match self {
+            ColourMode::Rgb => ['r', 'g', 'b'],
+            ColourMode::LuminanceChroma => ['Y', 'r', 'b'],
+        }
+    }
+}
+
+impl std::str::FromStr for ColourMode {
+    type Err = crate::BrdfError;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s {
+            "rgb" => Ok(ColourMode::Rgb),
+            "luminance-chroma" | "luminance_chroma" => Ok(ColourMode::LuminanceChroma),
+            other => Err(crate::BrdfError::Invalid {
+                name: "colour mode",
+                reason: format!("unknown mode `{other}` (rgb, luminance-chroma)"),
+            }),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn split_then_combine_is_the_identity() {
+        for rgb in [[0.2, 0.5, 0.1], [1.0, 1.0, 1.0], [0.01, 0.3, 0.9]] {
+            let mode = ColourMode::LuminanceChroma;
+            let v = mode.split(rgb).map(Option::unwrap);
+            let back = mode.combine(v);
+            let back32 = mode.combine_f32(v.map(|x| x as f32));
+            for c in 0..3 {
+                assert!((back[c] - rgb[c]).abs() < 1e-12, "{rgb:?} {back:?}");
+                assert!((f64::from(back32[c]) - rgb[c]).abs() < 1e-6);
+            }
+        }
+        assert_eq!(ColourMode::LuminanceChroma.split([0.0; 3])[1], None);
+        assert_eq!("rgb".parse::<ColourMode>().unwrap(), ColourMode::Rgb);
+        assert!("hsv".parse::<ColourMode>().is_err());
+    }
+}
