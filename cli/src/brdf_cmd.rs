@@ -59,7 +59,7 @@ pub struct FitArgs {
     /// When no budget is feasible, double every interval half-width and fit
     /// again, at most this many times (the report names the factor used);
     /// 0 asks for the exact intervals or no fit.
-    #[arg(long, default_value_t = 4)]
+    #[arg(long, default_value_t = 6)]
     max_widenings: usize,
     /// Fit to a perceptual budget instead of fixed intervals: the smallest
     /// 3-D perceptual fit (whole hemisphere; grid from `--resolution`, else
@@ -84,9 +84,11 @@ pub struct FitArgs {
     #[arg(long)]
     perceptual: bool,
     /// What the three fitted functions are: rgb (one per channel) or
-    /// luminance-chroma (the luminance, then r/Y and b/Y).
-    #[arg(long, default_value = "rgb")]
-    colour: brdf::ColourMode,
+    /// luminance-chroma (the luminance, then r/Y and b/Y). Default: rgb,
+    /// and luminance-chroma with `--target-de` (fewer bytes for the same
+    /// render error on the materials measured; docs/results/fidelity.md).
+    #[arg(long)]
+    colour: Option<brdf::ColourMode>,
     /// Print the report as JSON.
     #[arg(long)]
     json: bool,
@@ -167,7 +169,7 @@ pub fn run_fit(args: FitArgs) -> Result<()> {
         .with_reduction(reduction(&args)?)
         .with_rel_tol(args.rel_tol)?
         .with_noise_floor(args.noise_floor)?
-        .with_colour_mode(args.colour)
+        .with_colour_mode(args.colour.unwrap_or_default())
         .with_fit_settings(fit_settings);
     if args.perceptual {
         let whole = settings.reduction().whole_hemisphere();
@@ -218,7 +220,7 @@ fn run_fit_target(args: &FitArgs, fit_settings: FitSettings, target: f64) -> Res
     let settings = BrdfFitSettings::default()
         .with_reduction(reduction)
         .with_baselines(false)
-        .with_colour_mode(args.colour)
+        .with_colour_mode(args.colour.unwrap_or(brdf::ColourMode::LuminanceChroma))
         .with_fit_settings(fit_settings);
     let material: std::sync::Arc<dyn Brdf> = load_material(&args.material, &args.format)?.into();
     let (fitted, target_report) = render_cpu::fidelity::fit_to_target(

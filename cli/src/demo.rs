@@ -93,5 +93,22 @@ pub fn run_brdf(out: &Path) -> Result<()> {
         "  wrote {} (left: measured table, right: rational fit)",
         path.display()
     );
+    // What a user judges: the fit's renders against the table's on the two
+    // validation scenes of `ratfit bench fidelity`.
+    let table: std::sync::Arc<dyn brdf::Brdf> = std::sync::Arc::new(measured);
+    let validation = render_cpu::fidelity::ValidationSettings {
+        size: 96,
+        sky_spp: 32,
+        ..Default::default()
+    };
+    let validator = render_cpu::fidelity::Validator::new(table, validation)?;
+    let errors = validator.measure(std::sync::Arc::new(render_cpu::FitInDomain::new(fitted)))?;
+    println!(
+        "  render error against the table (mean CIEDE2000 over the sphere): lights {:.3}, sky {:.3} (the table against itself with another seed: {:.3}, {:.3})",
+        errors.scenes[0].mean_de,
+        errors.scenes[1].mean_de,
+        validator.noise[0].mean_de,
+        validator.noise[1].mean_de
+    );
     Ok(())
 }

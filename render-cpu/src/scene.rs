@@ -278,9 +278,10 @@ pub enum MaterialDescription {
         /// Largest coefficient budget per channel (default 60).
         #[serde(default = "default_max_coeffs")]
         max_coeffs: usize,
-        /// Instead of `rel_tol`: the smallest 3-D perceptual fit whose
-        /// validation renders reach this mean CIEDE2000 (see
-        /// `render_cpu::fidelity::fit_to_target`; `dims` is then 3).
+        /// Instead of `rel_tol`: the smallest 3-D perceptual fit
+        /// (luminance-chroma, 16^3 grid) whose validation renders reach
+        /// this mean CIEDE2000 (see `render_cpu::fidelity::fit_to_target`;
+        /// `dims` is then 3).
         #[serde(default, skip_serializing_if = "Option::is_none")]
         target_de: Option<f64>,
     },

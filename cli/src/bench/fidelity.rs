@@ -123,10 +123,11 @@ struct Plan {
     hemisphere: HemisphereSettings,
 }
 
-fn rational_reps(
-    table: &dyn Brdf,
-    plan: &Plan,
-) -> Vec<(String, Result<(brdf::FittedBrdf, String)>, f64)> {
+/// A representation's name, its fit and description (or why it failed),
+/// and the fit time.
+type Attempt = (String, Result<(brdf::FittedBrdf, String)>, f64);
+
+fn rational_reps(table: &dyn Brdf, plan: &Plan) -> Vec<Attempt> {
     let mut out = Vec::new();
     // Today's former default for scenes: the 2-D slice at 20% inside the cuts.
     let start = Instant::now();
@@ -260,17 +261,33 @@ mod rational_mode {
     }
 }
 
-fn measure(
-    material: &str,
+/// What every candidate of one material is measured against.
+struct Judge<'a> {
+    material: &'a str,
+    table: &'a dyn Brdf,
+    validator: &'a Validator,
+    plan: &'a Plan,
+}
+
+/// One representation to measure.
+struct Candidate {
     name: String,
-    candidate: Arc<dyn Brdf>,
+    brdf: Arc<dyn Brdf>,
     bytes: usize,
     fit_s: f64,
     note: String,
-    table: &dyn Brdf,
-    validator: &Validator,
-    plan: &Plan,
-) -> Result<Row> {
+}
+
+fn measure(judge: &Judge, c: Candidate) -> Result<Row> {
+    let Candidate {
+        name,
+        brdf: candidate,
+        bytes,
+        fit_s,
+        note,
+    } = c;
+    let (material, table, validator, plan) =
+        (judge.material, judge.table, judge.validator, judge.plan);
     let render = validator.measure(candidate.clone())?;
     let hemisphere = hemisphere_errors(table, candidate.as_ref(), &plan.hemisphere);
     let row = Row {
@@ -409,6 +426,12 @@ pub fn run(args: FidelityArgs) -> Result<()> {
             floor[1]
         );
         noise.push((material.clone(), floor));
+        let judge = Judge {
+            material: &material,
+            table: table.as_ref(),
+            validator: &validator,
+            plan: &plan,
+        };
         let mut material_rows = Vec::new();
         for (name, result, fit_s) in rational_reps(table.as_ref(), &plan) {
             match result {
@@ -416,15 +439,14 @@ pub fn run(args: FidelityArgs) -> Result<()> {
                     let bytes = fitted.byte_size_f32();
                     let candidate: Arc<dyn Brdf> = Arc::new(FitInDomain::new(fitted));
                     let row = measure(
-                        &material,
-                        name,
-                        candidate,
-                        bytes,
-                        fit_s,
-                        note,
-                        table.as_ref(),
-                        &validator,
-                        &plan,
+                        &judge,
+                        Candidate {
+                            name,
+                            brdf: candidate,
+                            bytes,
+                            fit_s,
+                            note,
+                        },
                     )?;
                     material_rows.push(row);
                 }
@@ -438,15 +460,14 @@ pub fn run(args: FidelityArgs) -> Result<()> {
             ggx.model.kd, ggx.model.f0, ggx.model.alpha
         );
         let row = measure(
-            &material,
-            "Cook-Torrance GGX (LM, log)".into(),
-            Arc::new(ggx.model),
-            28,
-            ggx.seconds,
-            note,
-            table.as_ref(),
-            &validator,
-            &plan,
+            &judge,
+            Candidate {
+                name: "Cook-Torrance GGX (LM, log)".into(),
+                brdf: Arc::new(ggx.model),
+                bytes: 28,
+                fit_s: ggx.seconds,
+                note,
+            },
         )?;
         material_rows.push(row);
         // The table downsampled to the bytes of each rational representation
@@ -465,15 +486,14 @@ pub fn run(args: FidelityArgs) -> Result<()> {
             let down = DownsampledTable::new(table.as_ref(), bins);
             let size = down.byte_size_f32();
             let row = measure(
-                &material,
-                format!("table downsampled to {size} B"),
-                Arc::new(down),
-                size,
-                t1.elapsed().as_secs_f64(),
-                format!("{}x{}x{} cells", bins[0], bins[1], bins[2]),
-                table.as_ref(),
-                &validator,
-                &plan,
+                &judge,
+                Candidate {
+                    name: format!("table downsampled to {size} B"),
+                    brdf: Arc::new(down),
+                    bytes: size,
+                    fit_s: t1.elapsed().as_secs_f64(),
+                    note: format!("{}x{}x{} cells", bins[0], bins[1], bins[2]),
+                },
             )?;
             material_rows.push(row);
         }

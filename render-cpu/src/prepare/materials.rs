@@ -202,13 +202,15 @@ impl MaterialBuilder<'_> {
                             .map_err(|e| self.material_error(name, e))?;
                         let (fitted, report) = match target_de {
                             Some(target) => {
-                                let settings = settings.with_reduction(
-                                    Reduction::default()
-                                        .with_kind(ReductionKind::Full3d)
-                                        .with_resolution(16, 16)
-                                        .with_phi_resolution(16)
-                                        .whole_hemisphere(),
-                                );
+                                let settings = settings
+                                    .with_colour_mode(brdf::ColourMode::LuminanceChroma)
+                                    .with_reduction(
+                                        Reduction::default()
+                                            .with_kind(ReductionKind::Full3d)
+                                            .with_resolution(16, 16)
+                                            .with_phi_resolution(16)
+                                            .whole_hemisphere(),
+                                    );
                                 let validation = crate::fidelity::ValidationSettings {
                                     size: 64,
                                     sky_spp: 32,
