@@ -32,8 +32,8 @@ pub struct FidelityArgs {
     #[arg(long, default_value = "target/bench-fidelity")]
     out: PathBuf,
     /// A few materials at small size (under three minutes): 2 RGL files,
-    /// 64 x 64 renders, the 2-D fit at 20% and one 3-D perceptual fit at
-    /// 16% on a 16^3 grid.
+    /// 64 x 64 renders, the 2-D fit at 20% and one 3-D luminance-chroma
+    /// fit at 16% on a 16^3 grid with at most 60 coefficients per function.
     #[arg(long)]
     quick: bool,
     /// Only materials whose file name contains this.
@@ -117,6 +117,7 @@ fn load(path: &Path) -> Result<Arc<dyn Brdf>> {
 /// Settings of the representations measured.
 struct Plan {
     perceptual_2d: bool,
+    modes: Vec<ColourMode>,
     tols: Vec<f64>,
     resolution_3d: usize,
     max_coeffs: usize,
@@ -148,7 +149,7 @@ fn rational_reps(table: &dyn Brdf, plan: &Plan) -> Vec<Attempt> {
         ));
     }
     for &t in &plan.tols {
-        for mode in [ColourMode::Rgb, ColourMode::LuminanceChroma] {
+        for &mode in &plan.modes {
             let start = Instant::now();
             let r = rational_mode::fit_perceptual(
                 table,
@@ -391,13 +392,22 @@ pub fn run(args: FidelityArgs) -> Result<()> {
     };
     let plan = Plan {
         perceptual_2d: !args.quick,
+        modes: if args.quick {
+            vec![ColourMode::LuminanceChroma]
+        } else {
+            vec![ColourMode::Rgb, ColourMode::LuminanceChroma]
+        },
         tols: if args.quick {
             vec![0.16]
         } else {
             args.tols.clone()
         },
         resolution_3d: if args.quick { 16 } else { args.resolution_3d },
-        max_coeffs: args.max_coeffs,
+        max_coeffs: if args.quick {
+            args.max_coeffs.min(60)
+        } else {
+            args.max_coeffs
+        },
         hemisphere: if args.quick {
             HemisphereSettings {
                 pairs: 10_000,
