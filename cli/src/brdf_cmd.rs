@@ -54,8 +54,9 @@ pub struct FitArgs {
     /// How to visit the splits: exhaustive (every split of every budget, the
     /// paper's sweep) or staircase (the same smallest budget and splits in
     /// about N log N solves instead of N^2/2; see `rational_core::Search`).
-    #[arg(long, default_value = "exhaustive")]
-    search: Search,
+    /// Default: exhaustive, and staircase with `--target-de`.
+    #[arg(long)]
+    search: Option<Search>,
     /// When no budget is feasible, double every interval half-width and fit
     /// again, at most this many times (the report names the factor used);
     /// 0 asks for the exact intervals or no fit.
@@ -152,7 +153,11 @@ pub fn run_fit(args: FitArgs) -> Result<()> {
         .with_coeff_range(2, args.max_coeffs)?
         .with_backend(args.backend)?
         .with_pole_control(args.poles)
-        .with_search(args.search);
+        .with_search(args.search.unwrap_or(if args.target_de.is_some() {
+            Search::Staircase
+        } else {
+            Search::Exhaustive
+        }));
     if !args.degree_weights.is_empty() {
         fit_settings = fit_settings.with_degree_weights(args.degree_weights.clone())?;
     }

@@ -309,8 +309,9 @@ impl std::fmt::Display for TargetReport {
 /// The smallest perceptual fit (3-D, whole hemisphere) whose validation
 /// renders reach mean CIEDE2000 `<= target_de` on both scenes: tolerances
 /// from `+-16%` down to `+-2%` are tried in turn (looser intervals give
-/// fewer coefficients), stopping at the first that reaches the target or
-/// when `budget_s` is spent; when none does, the fit with the lowest error
+/// fewer coefficients, usually), stopping at the first that reaches the
+/// target or when `budget_s` is spent (checked between fits, so the last
+/// fit may run past it); when none does, the fit with the lowest error
 /// is returned and the report says so. `base` gives the engine, grid and
 /// design (its relative half-width is replaced).
 ///

@@ -202,7 +202,12 @@ impl MaterialBuilder<'_> {
                             .map_err(|e| self.material_error(name, e))?;
                         let (fitted, report) = match target_de {
                             Some(target) => {
+                                let engine = settings
+                                    .fit_settings()
+                                    .clone()
+                                    .with_search(rational_core::Search::Staircase);
                                 let settings = settings
+                                    .with_fit_settings(engine)
                                     .with_colour_mode(brdf::ColourMode::LuminanceChroma)
                                     .with_reduction(
                                         Reduction::default()
