@@ -376,10 +376,67 @@ pub fn run(args: FidelityArgs) -> Result<()> {
     let files = materials(&path, args.only.as_deref(), args.quick)?;
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create {}", args.out.display()))?;
+    let (settings, plan) = settings_and_plan(&args);
+    let mut rows: Vec<Row> = Vec::new();
+    let mut noise: Vec<(String, Vec<f64>)> = Vec::new();
+    for file in &files {
+        let material = file
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        let t0 = Instant::now();
+        let table = load(file)?;
+        let validator = Validator::new(table.clone(), settings)?;
+        let floor: Vec<f64> = validator.noise.iter().map(|n| n.mean_de).collect();
+        println!(
+            "{material}: table rendered in {:.1} s; table against itself (another seed): dE lights {:.3}, sky {:.3}",
+            t0.elapsed().as_secs_f64(),
+            floor[0],
+            floor[1]
+        );
+        noise.push((material.clone(), floor));
+        let judge = Judge {
+            material: &material,
+            table: table.as_ref(),
+            validator: &validator,
+            plan: &plan,
+        };
+        let material_rows = measure_material(&judge)?;
+        for row in &material_rows {
+            write_images(
+                &args.out,
+                &material,
+                &row.representation,
+                validator.references(),
+                row,
+            )?;
+        }
+        rows.extend(material_rows);
+        write_outputs(&args, &rows, &noise, start.elapsed().as_secs_f64())?;
+    }
+    let problems = check(&args.out, &rows, &noise);
+    if !problems.is_empty() {
+        for p in &problems {
+            eprintln!("check: {p}");
+        }
+        bail!("{} problem(s) in {}", problems.len(), args.out.display());
+    }
+    println!(
+        "check: {} is complete ({} rows); wrote {} in {:.1} s",
+        args.out.display(),
+        rows.len(),
+        args.out.display(),
+        start.elapsed().as_secs_f64()
+    );
+    Ok(())
+}
+
+/// The validation renders and the representations of a run.
+fn settings_and_plan(args: &FidelityArgs) -> (ValidationSettings, Plan) {
     let settings = if args.quick {
         ValidationSettings {
             size: 64,
-            lights_spp: 2,
+            lights_spp: 1,
             sky_spp: 32,
             seed: 1,
         }
@@ -418,122 +475,77 @@ pub fn run(args: FidelityArgs) -> Result<()> {
             HemisphereSettings::default()
         },
     };
-    let mut rows: Vec<Row> = Vec::new();
-    let mut noise: Vec<(String, Vec<f64>)> = Vec::new();
-    for file in &files {
-        let material = file
-            .file_stem()
-            .map(|s| s.to_string_lossy().into_owned())
-            .unwrap_or_default();
-        let t0 = Instant::now();
-        let table = load(file)?;
-        let validator = Validator::new(table.clone(), settings)?;
-        let floor: Vec<f64> = validator.noise.iter().map(|n| n.mean_de).collect();
-        println!(
-            "{material}: table rendered in {:.1} s; table against itself (another seed): dE lights {:.3}, sky {:.3}",
-            t0.elapsed().as_secs_f64(),
-            floor[0],
-            floor[1]
-        );
-        noise.push((material.clone(), floor));
-        let judge = Judge {
-            material: &material,
-            table: table.as_ref(),
-            validator: &validator,
-            plan: &plan,
-        };
-        let mut material_rows = Vec::new();
-        for (name, result, fit_s) in rational_reps(table.as_ref(), &plan) {
-            match result {
-                Ok((fitted, note)) => {
-                    let bytes = fitted.byte_size_f32();
-                    let candidate: Arc<dyn Brdf> = Arc::new(FitInDomain::new(fitted));
-                    let row = measure(
-                        &judge,
-                        Candidate {
-                            name,
-                            brdf: candidate,
-                            bytes,
-                            fit_s,
-                            note,
-                        },
-                    )?;
-                    material_rows.push(row);
-                }
-                Err(e) => println!("  {name:<34} no fit: {e:#}"),
+    (settings, plan)
+}
+
+/// Every representation of one material, measured.
+fn measure_material(judge: &Judge) -> Result<Vec<Row>> {
+    let mut material_rows = Vec::new();
+    for (name, result, fit_s) in rational_reps(judge.table, judge.plan) {
+        match result {
+            Ok((fitted, note)) => {
+                let bytes = fitted.byte_size_f32();
+                let candidate: Arc<dyn Brdf> = Arc::new(FitInDomain::new(fitted));
+                let row = measure(
+                    &judge,
+                    Candidate {
+                        name,
+                        brdf: candidate,
+                        bytes,
+                        fit_s,
+                        note,
+                    },
+                )?;
+                material_rows.push(row);
             }
+            Err(e) => println!("  {name:<34} no fit: {e:#}"),
         }
-        // The analytic peer.
-        let ggx = brdf::baseline::fit_ggx(table.as_ref());
-        let note = format!(
-            "kd {:.3?} f0 {:.3?} alpha {:.4}",
-            ggx.model.kd, ggx.model.f0, ggx.model.alpha
-        );
+    }
+    // The analytic peer.
+    let ggx = brdf::baseline::fit_ggx(judge.table);
+    let note = format!(
+        "kd {:.3?} f0 {:.3?} alpha {:.4}",
+        ggx.model.kd, ggx.model.f0, ggx.model.alpha
+    );
+    let row = measure(
+        &judge,
+        Candidate {
+            name: "Cook-Torrance GGX (LM, log)".into(),
+            brdf: Arc::new(ggx.model),
+            bytes: 28,
+            fit_s: ggx.seconds,
+            note,
+        },
+    )?;
+    material_rows.push(row);
+    // The table downsampled to the bytes of each rational representation
+    // and to 1 KB.
+    let mut budgets: Vec<usize> = material_rows
+        .iter()
+        .filter(|r| r.representation.starts_with("rational"))
+        .map(|r| r.bytes)
+        .chain([1024])
+        .collect();
+    budgets.sort_unstable();
+    budgets.dedup();
+    for bytes in budgets {
+        let bins = DownsampledTable::bins_for_bytes(bytes);
+        let t1 = Instant::now();
+        let down = DownsampledTable::new(judge.table, bins);
+        let size = down.byte_size_f32();
         let row = measure(
             &judge,
             Candidate {
-                name: "Cook-Torrance GGX (LM, log)".into(),
-                brdf: Arc::new(ggx.model),
-                bytes: 28,
-                fit_s: ggx.seconds,
-                note,
+                name: format!("table downsampled to {size} B"),
+                brdf: Arc::new(down),
+                bytes: size,
+                fit_s: t1.elapsed().as_secs_f64(),
+                note: format!("{}x{}x{} cells", bins[0], bins[1], bins[2]),
             },
         )?;
         material_rows.push(row);
-        // The table downsampled to the bytes of each rational representation
-        // and to 1 KB.
-        let mut budgets: Vec<usize> = material_rows
-            .iter()
-            .filter(|r| r.representation.starts_with("rational"))
-            .map(|r| r.bytes)
-            .chain([1024])
-            .collect();
-        budgets.sort_unstable();
-        budgets.dedup();
-        for bytes in budgets {
-            let bins = DownsampledTable::bins_for_bytes(bytes);
-            let t1 = Instant::now();
-            let down = DownsampledTable::new(table.as_ref(), bins);
-            let size = down.byte_size_f32();
-            let row = measure(
-                &judge,
-                Candidate {
-                    name: format!("table downsampled to {size} B"),
-                    brdf: Arc::new(down),
-                    bytes: size,
-                    fit_s: t1.elapsed().as_secs_f64(),
-                    note: format!("{}x{}x{} cells", bins[0], bins[1], bins[2]),
-                },
-            )?;
-            material_rows.push(row);
-        }
-        for row in &material_rows {
-            write_images(
-                &args.out,
-                &material,
-                &row.representation,
-                validator.references(),
-                row,
-            )?;
-        }
-        rows.extend(material_rows);
-        write_outputs(&args, &rows, &noise, start.elapsed().as_secs_f64())?;
     }
-    let problems = check(&args.out, &rows, &noise);
-    if !problems.is_empty() {
-        for p in &problems {
-            eprintln!("check: {p}");
-        }
-        bail!("{} problem(s) in {}", problems.len(), args.out.display());
-    }
-    println!(
-        "check: {} is complete ({} rows); wrote {} in {:.1} s",
-        args.out.display(),
-        rows.len(),
-        args.out.display(),
-        start.elapsed().as_secs_f64()
-    );
-    Ok(())
+    Ok(material_rows)
 }
 
 const HEADER: &str = "material,representation,bytes,fit_s,lights_mean_de,lights_p99_de,sky_mean_de,sky_p99_de,median_rel_0_70,p90_rel_0_70,max_rel_0_70,median_rel_70_80,p90_rel_70_80,max_rel_70_80,median_rel_80_90,p90_rel_80_90,max_rel_80_90,median_rel_below_80,peak_ratio,note";

@@ -200,58 +200,18 @@ impl MaterialBuilder<'_> {
                         let dims = if target_de.is_some() { 3 } else { dims };
                         let settings = fit_settings(rel_tol, dims, max_coeffs)
                             .map_err(|e| self.material_error(name, e))?;
-                        let (fitted, report) = match target_de {
-                            Some(target) => {
-                                let engine = settings
-                                    .fit_settings()
-                                    .clone()
-                                    .with_search(rational_core::Search::Staircase);
-                                let settings = settings
-                                    .with_fit_settings(engine)
-                                    .with_colour_mode(brdf::ColourMode::LuminanceChroma)
-                                    .with_reduction(
-                                        Reduction::default()
-                                            .with_kind(ReductionKind::Full3d)
-                                            .with_resolution(16, 16)
-                                            .with_phi_resolution(16)
-                                            .whole_hemisphere(),
-                                    );
-                                let validation = crate::fidelity::ValidationSettings {
-                                    size: 64,
-                                    sky_spp: 32,
-                                    ..Default::default()
-                                };
-                                let (fitted, target) = crate::fidelity::fit_to_target(
-                                    src.clone(),
-                                    target,
-                                    &settings,
-                                    validation,
-                                    60.0,
-                                )?;
-                                log.push(
-                                    Action::Prepared,
-                                    &what,
-                                    format!(
-                                        "target CIEDE2000 {}: {}",
-                                        target.target_de,
-                                        target.to_string().lines().next().unwrap_or_default()
-                                    ),
-                                    start.elapsed().as_secs_f64(),
-                                );
-                                let report = brdf::BrdfFitReport {
-                                    material: src.name(),
-                                    reduction: fitted.reduction,
-                                    rel_tol: target.rel_tol,
-                                    noise_floor: 0.0,
-                                    design: None,
-                                    degree_weights: Vec::new(),
-                                    channels: Vec::new(),
-                                    seconds: target.seconds,
-                                };
-                                (fitted, report)
+                        let (fitted, summary) = match target_de {
+                            Some(target) => fit_for_target(&src, target, settings)?,
+                            None => {
+                                let (f, report) = brdf::fit_brdf(src.as_ref(), &settings)
+                                    .map_err(|e| self.material_error(name, e))?;
+                                let worst = report
+                                    .channels
+                                    .iter()
+                                    .map(|c| c.max_rel)
+                                    .fold(0.0, f64::max);
+                                (f, format!("rel_tol {rel_tol}, max rel error {worst:.3}"))
                             }
-                            None => brdf::fit_brdf(src.as_ref(), &settings)
-                                .map_err(|e| self.material_error(name, e))?,
                         };
                         let stored = self.cache.put(
                             "fit",
@@ -259,12 +219,16 @@ impl MaterialBuilder<'_> {
                             &settings_text,
                             serde_json::to_value(&fitted).unwrap_or_default(),
                         );
-                        let worst = report
-                            .channels
-                            .iter()
-                            .map(|c| c.max_rel)
-                            .fold(0.0, f64::max);
-                        log.push(Action::Prepared, &what, format!("fitted {src_desc} ({}-D, rel_tol {rel_tol}): {} coefficients, max rel error {worst:.3}; {stored}", dims, fitted.coefficients()), start.elapsed().as_secs_f64());
+                        log.push(
+                            Action::Prepared,
+                            &what,
+                            format!(
+                                "fitted {src_desc} ({}-D, {summary}): {} coefficients; {stored}",
+                                dims,
+                                fitted.coefficients()
+                            ),
+                            start.elapsed().as_secs_f64(),
+                        );
                         fitted
                     }
                 };
@@ -288,6 +252,43 @@ impl MaterialBuilder<'_> {
         }
         Ok(built)
     }
+}
+
+/// A scene's `target_de` fit: 3-D, luminance-chroma, a 16^3 grid over the
+/// whole hemisphere, validated at 64 x 64 pixels within 60 s; returns the
+/// fit and what it reached.
+fn fit_for_target(
+    src: &Arc<dyn Brdf>,
+    target: f64,
+    settings: BrdfFitSettings,
+) -> Result<(FittedBrdf, String), RenderError> {
+    let engine = settings
+        .fit_settings()
+        .clone()
+        .with_search(rational_core::Search::Staircase);
+    let settings = settings
+        .with_fit_settings(engine)
+        .with_colour_mode(brdf::ColourMode::LuminanceChroma)
+        .with_reduction(
+            Reduction::default()
+                .with_kind(ReductionKind::Full3d)
+                .with_resolution(16, 16)
+                .with_phi_resolution(16)
+                .whole_hemisphere(),
+        );
+    let validation = crate::fidelity::ValidationSettings {
+        size: 64,
+        sky_spp: 32,
+        ..Default::default()
+    };
+    let (fitted, report) =
+        crate::fidelity::fit_to_target(src.clone(), target, &settings, validation, 60.0)?;
+    let summary = format!(
+        "target CIEDE2000 {}: {}",
+        report.target_de,
+        report.to_string().lines().next().unwrap_or_default()
+    );
+    Ok((fitted, summary))
 }
 
 fn domain_note(fit: &FittedBrdf) -> String {
