@@ -487,7 +487,7 @@ fn measure_material(judge: &Judge) -> Result<Vec<Row>> {
                 let bytes = fitted.byte_size_f32();
                 let candidate: Arc<dyn Brdf> = Arc::new(FitInDomain::new(fitted));
                 let row = measure(
-                    &judge,
+                    judge,
                     Candidate {
                         name,
                         brdf: candidate,
@@ -508,7 +508,7 @@ fn measure_material(judge: &Judge) -> Result<Vec<Row>> {
         ggx.model.kd, ggx.model.f0, ggx.model.alpha
     );
     let row = measure(
-        &judge,
+        judge,
         Candidate {
             name: "Cook-Torrance GGX (LM, log)".into(),
             brdf: Arc::new(ggx.model),
@@ -534,7 +534,7 @@ fn measure_material(judge: &Judge) -> Result<Vec<Row>> {
         let down = DownsampledTable::new(judge.table, bins);
         let size = down.byte_size_f32();
         let row = measure(
-            &judge,
+            judge,
             Candidate {
                 name: format!("table downsampled to {size} B"),
                 brdf: Arc::new(down),
