@@ -20,7 +20,7 @@ use crate::math::{
     add, add_scaled, cross, dot, length, max_component, mul, normalize, scale, sub, Frame, Rng,
     Vec3,
 };
-use crate::scene::IntegratorKind;
+use crate::scene::{IntegratorKind, SamplePattern};
 use crate::world::{PreparedMaterial, Scene};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -85,14 +85,18 @@ pub fn render(scene: &Scene, progress: &(dyn Fn(usize, usize) + Sync)) -> Render
 /// Mean and per-sample variance of one pixel (Welford).
 fn pixel(scene: &Scene, x: usize, y: usize, spp: usize) -> ([f64; 3], [f64; 3]) {
     let index = (y * scene.camera.width() + x) as u64;
-    let mut rng = Rng::new(scene.integrator.seed, index);
+    let mut rng = match scene.integrator.pattern {
+        SamplePattern::Independent => Rng::new(scene.integrator.seed, index),
+        SamplePattern::Lattice => Rng::lattice(scene.integrator.seed, index, spp),
+    };
     let mut mean = [0.0; 3];
     let mut m2 = [0.0; 3];
     for s in 0..spp {
-        let (dx, dy) = if spp == 1 {
-            (0.5, 0.5)
+        rng.start_sample(s);
+        let [dx, dy] = if spp == 1 || !scene.integrator.jitter {
+            [0.5, 0.5]
         } else {
-            (rng.uniform(), rng.uniform())
+            rng.pair()
         };
         let ray = scene.camera.ray(x as f64 + dx, y as f64 + dy);
         let l = radiance(scene, ray, &mut rng);

@@ -73,5 +73,7 @@ pub use prepare::{
     content_hash, prepare, prepare_file, resolve_path, spiral_directions, Action, LogEntry,
     PrepareLog, RenderOptions,
 };
-pub use scene::{IntegratorKind, MaterialDescription, SamplerKind, SceneDescription};
+pub use scene::{
+    IntegratorKind, MaterialDescription, SamplePattern, SamplerKind, SceneDescription,
+};
 pub use world::{ClosedForm, FitInDomain, IntegratorSettings, Object, PreparedMaterial, Scene};

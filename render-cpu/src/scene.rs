@@ -14,6 +14,8 @@
 //! kind = "direct"          # or "path"
 //! spp = 16
 //! sampler = "rational"     # BRDF sampling: cosine, tabulated or rational
+//! pattern = "lattice"      # scrambled Sobol' points (default: independent)
+//! jitter = true            # spread samples over the pixel (default)
 //!
 //! [materials.paint]
 //! kind = "measured"
@@ -178,6 +180,18 @@ impl SamplerKind {
     }
 }
 
+/// Where the random numbers of a pixel's samples come from.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Deserialize, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SamplePattern {
+    /// Independent uniform numbers.
+    #[default]
+    Independent,
+    /// A randomised rank-1 lattice per pair of dimensions: unbiased, and
+    /// on smooth lighting far less noisy at the same samples per pixel.
+    Lattice,
+}
+
 /// Integrator settings.
 #[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
@@ -198,6 +212,14 @@ pub struct IntegratorDescription {
     /// heuristic (default false: BRDF sampling alone, as in the paper).
     #[serde(default)]
     pub mis: bool,
+    /// Where each pixel's samples come from (default independent).
+    #[serde(default)]
+    pub pattern: SamplePattern,
+    /// Spread a pixel's samples over its area (default true); false puts
+    /// every sample through the pixel's centre, a point-sampled image whose
+    /// only noise is that of the lighting integral.
+    #[serde(default = "yes")]
+    pub jitter: bool,
     /// Largest number of bounces of the path tracer (default 5).
     #[serde(default = "default_depth")]
     pub max_depth: usize,

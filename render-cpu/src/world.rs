@@ -150,6 +150,10 @@ pub struct IntegratorSettings {
     pub sampler: SamplerKind,
     /// Combine BRDF and light sampling with the balance heuristic.
     pub mis: bool,
+    /// Where each pixel's samples come from.
+    pub pattern: crate::scene::SamplePattern,
+    /// Spread a pixel's samples over its area.
+    pub jitter: bool,
     /// Bounces of the path tracer.
     pub max_depth: usize,
     /// Shadow rays towards directional and point lights.

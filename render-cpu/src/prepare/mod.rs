@@ -321,6 +321,8 @@ fn integrator_settings(
         seed: options.seed.unwrap_or(i.seed),
         sampler: options.sampler.unwrap_or(i.sampler),
         mis: options.mis.unwrap_or(i.mis),
+        pattern: i.pattern,
+        jitter: i.jitter,
         max_depth: i.max_depth,
         shadows: i.shadows,
     };
