@@ -41,6 +41,10 @@ pub struct CompactBrdf {
     pub dims: usize,
     /// Grazing cut in radians (`theta_d` is clamped to it).
     pub max_theta_d: f32,
+    /// Elevation cut in radians: directions further from the normal are
+    /// evaluated at the cut (see [`crate::clamp_elevation`]); `pi / 2` for
+    /// a fit of the whole hemisphere.
+    pub max_elevation: f32,
     /// Red, green, blue, or what `mode` says.
     pub channels: Vec<CompactChannel>,
     /// What the three functions are.
@@ -191,6 +195,7 @@ impl CompactBrdf {
             coordinates: f.reduction.coordinates,
             dims: f.reduction.dims(),
             max_theta_d: f.reduction.max_theta_d_deg.to_radians() as f32,
+            max_elevation: f.reduction.max_elevation_deg.min(90.0).to_radians() as f32,
             channels,
             mode: f.mode,
         }
@@ -213,9 +218,23 @@ impl CompactBrdf {
         if wi[2] <= 0.0 || wo[2] <= 0.0 {
             return [0.0; 3];
         }
+        let (wi, wo) = if self.has_elevation_cut() {
+            let (sin_cut, cos_cut) = self.max_elevation.sin_cos();
+            (
+                clamp_elevation_f32(wi, cos_cut, sin_cut),
+                clamp_elevation_f32(wo, cos_cut, sin_cut),
+            )
+        } else {
+            (wi, wo)
+        };
         let x = self.coordinates(wi, wo);
         self.mode
             .combine_f32([0, 1, 2].map(|c| self.channels[c].eval(&x[..self.dims])))
+    }
+
+    /// Whether directions beyond an elevation cut are moved to it.
+    pub fn has_elevation_cut(&self) -> bool {
+        self.max_elevation < PI / 2.0
     }
 
     /// Evaluates many pairs (f32, batched, in parallel).
@@ -228,10 +247,11 @@ impl CompactBrdf {
     }
 
     /// The compact binary form: magic `RFB1`, header (coordinates, dims,
-    /// channels, flags; `max_theta_d`), then every channel (family, `n_p`,
-    /// `n_q`, one byte per coordinate's degree weight when flag bit 0 is set,
-    /// domain and coefficients as f32). Unweighted RGB fits leave the flags
-    /// 0; bit 1 marks the luminance-chroma mode.
+    /// channels, flags; `max_theta_d`; the elevation cut when flag bit 2 is
+    /// set), then every channel (family, `n_p`, `n_q`, one byte per
+    /// coordinate's degree weight when flag bit 0 is set, domain and
+    /// coefficients as f32). Unweighted RGB fits of the whole hemisphere
+    /// leave the flags 0; bit 1 marks the luminance-chroma mode.
     pub fn to_bytes(&self) -> Vec<u8> {
         let mut out = b"RFB1".to_vec();
         let coords = match self.coordinates {
@@ -243,9 +263,15 @@ impl CompactBrdf {
             .channels
             .iter()
             .any(|c| c.weights.iter().any(|&w| w != 1));
-        let flags = u8::from(weighted) | (u8::from(self.mode == ColourMode::LuminanceChroma) << 1);
+        let cut = self.has_elevation_cut();
+        let flags = u8::from(weighted)
+            | (u8::from(self.mode == ColourMode::LuminanceChroma) << 1)
+            | (u8::from(cut) << 2);
         out.extend_from_slice(&[coords, self.dims as u8, self.channels.len() as u8, flags]);
         out.extend_from_slice(&self.max_theta_d.to_le_bytes());
+        if cut {
+            out.extend_from_slice(&self.max_elevation.to_le_bytes());
+        }
         for c in &self.channels {
             let fam = match c.family {
                 BasisFamily::Monomial => 0u8,
@@ -284,11 +310,14 @@ impl CompactBrdf {
         };
         let dims = b[5] as usize;
         let nch = b[6] as usize;
-        if !(1..=3).contains(&dims) {
-            return Err(bad("dimension out of range"));
+        if !(2..=3).contains(&dims) {
+            return Err(bad(&format!("{dims} coordinates (2 or 3 expected)")));
         }
-        if b[7] > 3 {
-            return Err(bad("unknown flags"));
+        if nch != 3 {
+            return Err(bad(&format!("{nch} channels (3 expected)")));
+        }
+        if b[7] > 7 {
+            return Err(bad(&format!("unknown flags {:#04x}", b[7])));
         }
         let weighted = b[7] & 1 == 1;
         let mode = if b[7] & 2 == 2 {
@@ -296,8 +325,23 @@ impl CompactBrdf {
         } else {
             ColourMode::Rgb
         };
-        let max_theta_d = f32::from_le_bytes(b[8..12].try_into().expect("4 bytes"));
-        let mut pos = 12;
+        let angle = |at: usize, what: &str| -> Result<f32, BrdfError> {
+            let v = b
+                .get(at..at + 4)
+                .map(|w| f32::from_le_bytes(w.try_into().expect("4 bytes")))
+                .ok_or_else(|| bad(&format!("truncated header ({what})")))?;
+            if v > 0.0 && v <= PI / 2.0 + 1e-6 {
+                Ok(v)
+            } else {
+                Err(bad(&format!("{what} {v} rad is outside (0, pi/2]")))
+            }
+        };
+        let max_theta_d = angle(8, "grazing cut")?;
+        let (max_elevation, mut pos) = if b[7] & 4 == 4 {
+            (angle(12, "elevation cut")?, 16)
+        } else {
+            (PI / 2.0, 12)
+        };
         let mut channels = Vec::with_capacity(nch);
         for _ in 0..nch {
             let head = b
@@ -311,6 +355,11 @@ impl CompactBrdf {
             };
             let n_p = u16::from_le_bytes([head[1], head[2]]) as usize;
             let n_q = u16::from_le_bytes([head[3], head[4]]) as usize;
+            if n_p == 0 || n_q == 0 {
+                return Err(bad(
+                    "a channel with no numerator or denominator coefficient",
+                ));
+            }
             pos += 5;
             let weights: Vec<u16> = if weighted {
                 let w = b
@@ -336,6 +385,12 @@ impl CompactBrdf {
                 .chunks_exact(4)
                 .map(|c| f32::from_le_bytes(c.try_into().expect("4")))
                 .collect();
+            if v.iter().any(|x| !x.is_finite()) {
+                return Err(bad("a domain bound or coefficient is not finite"));
+            }
+            if (0..dims).any(|k| v[k] >= v[dims + k]) {
+                return Err(bad("an empty domain (lower bound not below upper)"));
+            }
             let indices = rational_core::weighted_graded_indices(&weights, n_p.max(n_q));
             channels.push(CompactChannel {
                 degrees: CompactChannel::degrees_of(&indices, dims),
@@ -356,9 +411,22 @@ impl CompactBrdf {
             coordinates,
             dims,
             max_theta_d,
+            max_elevation,
             channels,
         })
     }
+}
+
+/// [`crate::clamp_elevation`] in f32, as the shaders compute it.
+pub fn clamp_elevation_f32(d: [f32; 3], cos_cut: f32, sin_cut: f32) -> [f32; 3] {
+    if d[2] >= cos_cut {
+        return d;
+    }
+    let s = (d[0] * d[0] + d[1] * d[1]).sqrt();
+    if s <= 0.0 {
+        return d;
+    }
+    [d[0] * (sin_cut / s), d[1] * (sin_cut / s), cos_cut]
 }
 
 /// `f32` view of a direction.

@@ -192,9 +192,21 @@ impl FittedBrdf {
 }
 
 impl Brdf for FittedBrdf {
+    /// The fit at `(wi, wo)`; beyond an elevation cut of the reduction,
+    /// directions are moved to the cut ([`crate::clamp_elevation`]), where
+    /// the fit was constrained.
     fn eval(&self, wi: Vec3, wo: Vec3) -> [f64; 3] {
         if wi[2] <= 0.0 || wo[2] <= 0.0 {
             return [0.0; 3];
+        }
+        let cut = self.reduction.max_elevation_deg;
+        if cut < 90.0 {
+            let (sin_cut, cos_cut) = cut.to_radians().sin_cos();
+            let (wi, wo) = (
+                crate::geometry::clamp_elevation(wi, cos_cut, sin_cut),
+                crate::geometry::clamp_elevation(wo, cos_cut, sin_cut),
+            );
+            return self.eval_coords(&self.coordinates(wi, wo));
         }
         self.eval_coords(&self.coordinates(wi, wo))
     }

@@ -37,6 +37,22 @@ pub fn from_spherical(theta: f64, phi: f64) -> Vec3 {
     [st * cp, st * sp, ct]
 }
 
+/// `d` moved to the elevation whose cosine and sine are `cos_cut` and
+/// `sin_cut`, at the same azimuth, when it lies further from the normal.
+/// A fit whose samples stop at an elevation cut is evaluated at the cut
+/// beyond it; every evaluation path of a fit (f64, f32, the shaders) uses
+/// this one rule.
+pub fn clamp_elevation(d: Vec3, cos_cut: f64, sin_cut: f64) -> Vec3 {
+    if d[2] >= cos_cut {
+        return d;
+    }
+    let s = (d[0] * d[0] + d[1] * d[1]).sqrt();
+    if s <= 0.0 {
+        return d;
+    }
+    [d[0] * sin_cut / s, d[1] * sin_cut / s, cos_cut]
+}
+
 /// `(theta, phi)` of a unit direction; `theta` by a formula that stays
 /// accurate near the normal, `phi` in `(-pi, pi]`.
 pub fn to_spherical(d: Vec3) -> (f64, f64) {

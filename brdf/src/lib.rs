@@ -50,7 +50,9 @@ pub use error::BrdfError;
 pub use fitting::{
     fit_brdf, fit_samples, BrdfFitReport, BrdfFitSettings, ChannelReport, FittedBrdf,
 };
-pub use geometry::{cross, dot, from_spherical, normalize, rotate, to_spherical, HalfDiff, Vec3};
+pub use geometry::{
+    clamp_elevation, cross, dot, from_spherical, normalize, rotate, to_spherical, HalfDiff, Vec3,
+};
 pub use material::Brdf;
 pub use merl::{MerlBrdf, TabulateOptions};
 pub use reduce::{Coordinates, Reduction, ReductionKind, Samples};

@@ -226,10 +226,30 @@ fn source_with_prefix(b: &CompactBrdf, l: Language, prefix: &str) -> String {
     for (k, c) in b.channels.iter().enumerate() {
         out += &channel_fn(l, &s, c, k, prefix);
     }
+    if b.has_elevation_cut() {
+        // Beyond the fit's elevation cut, directions move to the cut at the
+        // same azimuth (`brdf::clamp_elevation`).
+        let (sin_cut, cos_cut) = b.max_elevation.sin_cos();
+        out += &fn_header(l, &format!("{prefix}_to_cut"), &[("d", v3)], v3);
+        out += &format!("    if (d.z >= {}) {{ return d; }}\n", lit(cos_cut));
+        out += &format!("    {} = length(d.xy);\n", decl(l, "s", f, false));
+        out += "    if (s <= 0.0) { return d; }\n";
+        out += &format!(
+            "    return {v3}(d.x * ({} / s), d.y * ({} / s), {});\n}}\n\n",
+            lit(sin_cut),
+            lit(sin_cut),
+            lit(cos_cut)
+        );
+    }
     out += &fn_header(l, &format!("{prefix}_brdf"), &[("wi", v3), ("wo", v3)], v3);
     out += &format!("    if (wi.z <= 0.0 || wo.z <= 0.0) {{ return {v3}(0.0, 0.0, 0.0); }}\n");
+    let args = if b.has_elevation_cut() {
+        format!("{prefix}_to_cut(wi), {prefix}_to_cut(wo)")
+    } else {
+        "wi, wo".to_string()
+    };
     out += &format!(
-        "    {} = {prefix}_coords(wi, wo);\n",
+        "    {} = {prefix}_coords({args});\n",
         decl(l, "x", v3, false)
     );
     let calls: Vec<String> = (0..b.channels.len())

@@ -30,6 +30,10 @@ fn fits() -> Vec<FittedBrdf> {
         if kind == ReductionKind::Full3d {
             r = r.with_resolution(12, 12).with_phi_resolution(10);
         }
+        if coords == Coordinates::Cosines {
+            // No elevation cut: every export must leave it out.
+            r = r.whole_hemisphere();
+        }
         let mut s = BrdfFitSettings::default().with_reduction(r);
         if kind == ReductionKind::Full3d {
             // A weighted degree order: every export must carry it.
@@ -120,12 +124,15 @@ fn compact_binary_round_trips() {
         let back = CompactBrdf::from_bytes(&bytes).unwrap();
         assert_eq!(back, c);
         assert_eq!(back.to_bytes(), bytes);
-        assert!(bytes.len() < 12 + 3 * (5 + 3 + 4 * (6 + 60)));
+        let cut = f.reduction.max_elevation_deg < 90.0;
+        assert_eq!(c.has_elevation_cut(), cut);
+        let header = if cut { 16 } else { 12 };
+        assert!(bytes.len() < header + 3 * (5 + 3 + 4 * (6 + 60)));
         let weighted = f.channels.iter().any(|r| r.basis().is_weighted());
         let chroma = f.mode == ColourMode::LuminanceChroma;
         assert_eq!(
             bytes[7],
-            u8::from(weighted) | (u8::from(chroma) << 1),
+            u8::from(weighted) | (u8::from(chroma) << 1) | (u8::from(cut) << 2),
             "flags byte"
         );
         assert_eq!(back.mode, f.mode);
@@ -133,10 +140,25 @@ fn compact_binary_round_trips() {
             assert_eq!(back.channels[0].weights, vec![1, 2, 2]);
             // The first channel's weights follow its family, n_p and n_q.
             let mut zero = bytes.clone();
-            zero[12 + 5] = 0;
+            zero[header + 5] = 0;
             let e = CompactBrdf::from_bytes(&zero).unwrap_err().to_string();
             assert!(e.contains("degree weight"), "{e}");
         }
+        if cut {
+            let mut wide = bytes.clone();
+            wide[12..16].copy_from_slice(&2.0f32.to_le_bytes());
+            let e = CompactBrdf::from_bytes(&wide).unwrap_err().to_string();
+            assert!(e.contains("elevation cut"), "{e}");
+        }
+        let mut nan = bytes.clone();
+        let last = nan.len() - 4;
+        nan[last..].copy_from_slice(&f32::NAN.to_le_bytes());
+        let e = CompactBrdf::from_bytes(&nan).unwrap_err().to_string();
+        assert!(e.contains("not finite"), "{e}");
+        let mut two = bytes.clone();
+        two[6] = 2;
+        let e = CompactBrdf::from_bytes(&two).unwrap_err().to_string();
+        assert!(e.contains("channels"), "{e}");
         let mut cut = bytes.clone();
         cut.truncate(bytes.len() - 3);
         assert!(CompactBrdf::from_bytes(&cut).is_err());
@@ -170,6 +192,14 @@ fn generated_wgsl_and_glsl_are_valid_shaders() {
             .functions
             .iter()
             .any(|(_, f)| f.name.as_deref() == Some("ratfit_brdf")));
+        // The elevation cut lives in the generated code, as in the f32 path.
+        assert_eq!(
+            module
+                .functions
+                .iter()
+                .any(|(_, f)| f.name.as_deref() == Some("ratfit_to_cut")),
+            c.has_elevation_cut()
+        );
 
         let glsl = format!(
             "#version 450\n{}\nlayout(location = 0) out vec4 color;\nvoid main() {{ color = vec4(ratfit_brdf(vec3(0.0, 0.6, 0.8), vec3(0.0, -0.6, 0.8)), 1.0); }}\n",

@@ -8,33 +8,24 @@ use brdf::Brdf;
 use cdf::Sampler;
 use std::sync::Arc;
 
-/// A rational fit evaluated only inside the elevations it was sampled on:
-/// a direction further from the normal than the reduction's elevation cut
-/// is evaluated at the cut (same azimuth). Outside its samples nothing
-/// constrains a fit, and fits were seen to reach 1e4 times their peak there.
-/// Evaluation uses the compact f32 form (as a GPU would; about 2.8 times
-/// faster than the f64 path, which agrees with it to the conditioning of the
-/// evaluation).
+/// A rational fit as the renderer evaluates it: the compact f32 form (as a
+/// GPU would; about 2.8 times faster than the f64 path, which agrees with
+/// it to the conditioning of the evaluation). Beyond an elevation cut of
+/// the fit's reduction, directions are moved to the cut, by the rule every
+/// evaluation path shares (`brdf::clamp_elevation`): outside its samples
+/// nothing constrains a fit, and fits were seen to reach 1e4 times their
+/// peak there. Fits of the whole hemisphere have no cut.
 #[derive(Debug, Clone)]
 pub struct FitInDomain {
     fit: brdf::FittedBrdf,
     compact: brdf::CompactBrdf,
-    /// The elevation cut (radians) and its cosine.
-    limit: f64,
-    cos_limit: f64,
 }
 
 impl FitInDomain {
     /// Wraps a fit.
     pub fn new(fit: brdf::FittedBrdf) -> Self {
         let compact = brdf::CompactBrdf::from_fitted(&fit);
-        let limit = fit.reduction.max_elevation_deg.to_radians();
-        Self {
-            fit,
-            compact,
-            limit,
-            cos_limit: limit.cos(),
-        }
+        Self { fit, compact }
     }
 
     /// The fit.
@@ -47,26 +38,17 @@ impl FitInDomain {
         &self.compact
     }
 
-    /// The elevation cut in radians.
+    /// The elevation cut in radians (`pi / 2` without one).
     pub fn max_elevation(&self) -> f64 {
-        self.limit
+        f64::from(self.compact.max_elevation)
     }
 }
 
 impl Brdf for FitInDomain {
     fn eval(&self, wi: brdf::Vec3, wo: brdf::Vec3) -> [f64; 3] {
-        if wi[2] <= 0.0 || wo[2] <= 0.0 {
-            return [0.0; 3];
-        }
-        let clamp = |d: brdf::Vec3| {
-            let d = if d[2] < self.cos_limit {
-                brdf::from_spherical(self.limit, d[1].atan2(d[0]))
-            } else {
-                d
-            };
-            d.map(|v| v as f32)
-        };
-        self.compact.eval(clamp(wi), clamp(wo)).map(f64::from)
+        self.compact
+            .eval(wi.map(|v| v as f32), wo.map(|v| v as f32))
+            .map(f64::from)
     }
 
     fn name(&self) -> String {
@@ -244,12 +226,22 @@ mod tests {
                 "{c}"
             );
         }
-        // Beyond: the value at the cut, same azimuths.
+        // Beyond: the value at the cut, same azimuths, on the f32 and the
+        // f64 paths alike.
         let (wi, wo) = (from_spherical(1.45, 0.1), from_spherical(0.9, 2.5));
-        assert_eq!(
-            bits(wrapped.eval(wi, wo)),
-            bits(compact(from_spherical(limit, 0.1), wo))
-        );
+        let at_cut = fit.eval(from_spherical(limit, 0.1), wo);
+        let beyond = fit.eval(wi, wo);
+        for c in 0..3 {
+            assert!((beyond[c] - at_cut[c]).abs() < 1e-12 * at_cut[c], "{c}");
+        }
+        assert_eq!(bits(wrapped.eval(wi, wo)), bits(compact(wi, wo)));
+        for c in 0..3 {
+            assert!(
+                (wrapped.eval(wi, wo)[c] - at_cut[c]).abs() < 1e-4 * at_cut[c],
+                "{c}: {:?} against {at_cut:?}",
+                wrapped.eval(wi, wo)
+            );
+        }
         assert_eq!(bits(wrapped.eval([0.0, 0.6, -0.8], wo)), bits([0.0; 3]));
     }
 }

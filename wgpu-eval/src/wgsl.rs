@@ -55,16 +55,10 @@ pub fn material_source(k: usize, form: &ClosedForm) -> Result<String, GpuError> 
         ClosedForm::Fit(fit) => {
             let prefix = format!("fit{k}");
             let mut s = shader_source_named(fit.compact(), Language::Wgsl, &prefix)?;
-            // Directions beyond the sampled elevations are evaluated at the
-            // cut, as render_cpu::FitInDomain does.
-            let limit = fit.max_elevation();
+            // The generated function applies the fit's elevation cut itself.
             let _ = write!(
                 s,
-                "fn material_{k}(wi: vec3<f32>, wo: vec3<f32>) -> vec3<f32> {{\n    let a = clamp_elevation(wi, {:e}, {:e});\n    let b = clamp_elevation(wo, {:e}, {:e});\n    return max({prefix}_brdf(a, b), vec3<f32>(0.0));\n}}\n\n",
-                limit.cos(),
-                limit.sin(),
-                limit.cos(),
-                limit.sin()
+                "fn material_{k}(wi: vec3<f32>, wo: vec3<f32>) -> vec3<f32> {{\n    return max({prefix}_brdf(wi, wo), vec3<f32>(0.0));\n}}\n\n"
             );
             s
         }
@@ -107,19 +101,6 @@ struct Light {
 
 @group(0) @binding(0) var<uniform> globals: Globals;
 @group(0) @binding(1) var<uniform> lights: array<Light, LIGHTS>;
-
-// A direction further from the normal than the cut, moved to the cut at
-// the same azimuth.
-fn clamp_elevation(d: vec3<f32>, cos_cut: f32, sin_cut: f32) -> vec3<f32> {
-    if (d.z >= cos_cut) {
-        return d;
-    }
-    let s = length(d.xy);
-    if (s <= 0.0) {
-        return d;
-    }
-    return vec3<f32>(d.xy * (sin_cut / s), cos_cut);
-}
 
 "#;
 
