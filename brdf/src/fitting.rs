@@ -355,7 +355,7 @@ impl fmt::Display for BrdfFitReport {
         for c in self.channels.iter().filter(|c| c.interval_scale > 1.0) {
             writeln!(
                 f,
-                "  {}   no fit within the budget at the requested intervals; fitted with every half-width x{}",
+                "  {}   no fit within the budget at the requested intervals; fitted with every interval widened x{} (on a log scale)",
                 c.channel, c.interval_scale
             )?;
         }

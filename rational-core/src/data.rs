@@ -233,14 +233,31 @@ impl IntervalData {
         Domain { lower, upper }
     }
 
-    /// Every half-width multiplied by `factor` about the interval's centre.
+    /// Every interval widened by `factor`. An interval of one sign is
+    /// widened on a log scale: its half-width in `ln |v|` is multiplied
+    /// about the geometric centre, so the relative error allowed grows but
+    /// zero never enters (a relative interval widened linearly soon
+    /// contains zero, and the zero function then "fits" every sample). An
+    /// interval that contains zero has its half-width multiplied about its
+    /// centre.
     pub fn widened(&self, factor: f64) -> Self {
         let mut out = self.clone();
         for i in 0..self.len() {
-            let c = 0.5 * (self.lo[i] + self.hi[i]);
-            let h = 0.5 * (self.hi[i] - self.lo[i]) * factor;
-            out.lo[i] = c - h;
-            out.hi[i] = c + h;
+            let (lo, hi) = (self.lo[i], self.hi[i]);
+            if lo > 0.0 || hi < 0.0 {
+                let sign = if lo > 0.0 { 1.0 } else { -1.0 };
+                let (a, b) = ((sign * lo).ln(), (sign * hi).ln());
+                let c = 0.5 * (a + b);
+                let h = 0.5 * (b - a).abs() * factor;
+                let (x, y) = (sign * (c - h).exp(), sign * (c + h).exp());
+                out.lo[i] = x.min(y);
+                out.hi[i] = x.max(y);
+            } else {
+                let c = 0.5 * (lo + hi);
+                let h = 0.5 * (hi - lo) * factor;
+                out.lo[i] = c - h;
+                out.hi[i] = c + h;
+            }
         }
         out
     }

@@ -134,7 +134,7 @@ impl fmt::Display for FitReport {
         if self.widenings > 0 {
             writeln!(
                 f,
-                "  intervals widened   {} times (half-widths x{})",
+                "  intervals widened   {} times (x{}, on a log scale where of one sign)",
                 self.widenings, self.interval_scale
             )?;
         }

@@ -233,8 +233,10 @@ impl FitSettings {
         self
     }
 
-    /// When no budget up to the maximum is feasible, multiply every interval's
-    /// half-width by `factor` and sweep again, at most `times` times.
+    /// When no budget up to the maximum is feasible, widen every interval by
+    /// `factor` and sweep again, at most `times` times: intervals of one
+    /// sign on a log scale (zero never enters), others about their centre
+    /// ([`crate::IntervalData::widened`]).
     ///
     /// # Errors
     /// `factor <= 1` or not finite.

@@ -68,6 +68,35 @@ fn widening_recovers_a_fit_and_says_so() {
 }
 
 #[test]
+fn widening_keeps_intervals_of_one_sign_away_from_zero() {
+    let x = line(4);
+    let d = IntervalData::new(
+        1,
+        x,
+        vec![0.95, -1.05, -1.0, 2.0],
+        vec![1.05, -0.95, 1.0, 2.0],
+    )
+    .unwrap();
+    let w = d.widened(8.0);
+    let log_half = |lo: f64, hi: f64| 0.5 * (hi / lo).ln().abs();
+    for i in 0..2 {
+        assert!(
+            w.lo()[i] * d.lo()[i] > 0.0 && w.hi()[i] * d.hi()[i] > 0.0,
+            "{i}: sign kept"
+        );
+        let ratio = log_half(w.lo()[i], w.hi()[i]) / log_half(d.lo()[i], d.hi()[i]);
+        assert!((ratio - 8.0).abs() < 1e-9, "{i}: log half-width x{ratio}");
+        assert!(
+            (w.lo()[i] * w.hi()[i] - d.lo()[i] * d.hi()[i]).abs() < 1e-12,
+            "{i}: geometric centre"
+        );
+    }
+    // Across zero: the half-width about the centre; a point stays a point.
+    assert_eq!((w.lo()[2], w.hi()[2]), (-8.0, 8.0));
+    assert_eq!((w.lo()[3], w.hi()[3]), (2.0, 2.0));
+}
+
+#[test]
 fn invalid_settings_are_refused() {
     assert!(FitSettings::default().with_coeff_range(1, 5).is_err());
     assert!(FitSettings::default().with_coeff_range(6, 5).is_err());
