@@ -133,8 +133,10 @@ impl BrdfFitSettings {
 }
 
 /// A fitted isotropic BRDF: one rational function per RGB channel over the
-/// reduction's coordinates.
+/// reduction's coordinates. Deserialisation checks it
+/// ([`FittedBrdf::validate`]): a fit file is input like any other.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "FittedSpec")]
 pub struct FittedBrdf {
     /// What the functions were fitted to.
     pub reduction: Reduction,
@@ -147,7 +149,66 @@ pub struct FittedBrdf {
     pub name: String,
 }
 
+/// The serialised form of a [`FittedBrdf`], checked on the way in.
+#[derive(Deserialize)]
+struct FittedSpec {
+    reduction: Reduction,
+    channels: Vec<RationalFunction>,
+    #[serde(default)]
+    mode: ColourMode,
+    name: String,
+}
+
+impl TryFrom<FittedSpec> for FittedBrdf {
+    type Error = BrdfError;
+    fn try_from(s: FittedSpec) -> Result<Self, BrdfError> {
+        let f = Self {
+            reduction: s.reduction,
+            channels: s.channels,
+            mode: s.mode,
+            name: s.name,
+        };
+        f.validate()?;
+        Ok(f)
+    }
+}
+
 impl FittedBrdf {
+    /// Checks every invariant the evaluators index by: three channels, each
+    /// a function of the reduction's coordinates, and a valid reduction
+    /// (each function's coefficients were checked when it was built).
+    ///
+    /// # Errors
+    /// The first invariant broken, named.
+    pub fn validate(&self) -> Result<(), BrdfError> {
+        let bad = |reason: String| BrdfError::Invalid {
+            name: "fitted BRDF",
+            reason,
+        };
+        self.reduction.validate()?;
+        if self.channels.len() != 3 {
+            return Err(bad(format!(
+                "{} channels (three functions expected: {})",
+                self.channels.len(),
+                match self.mode {
+                    ColourMode::Rgb => "red, green, blue",
+                    ColourMode::LuminanceChroma => "luminance, r/Y, b/Y",
+                }
+            )));
+        }
+        let dims = self.reduction.dims();
+        for (k, c) in self.channels.iter().enumerate() {
+            if c.basis().dim() != dims {
+                return Err(bad(format!(
+                    "channel {k} is a function of {} coordinates; the {:?} reduction has {dims}",
+                    c.basis().dim(),
+                    self.reduction.kind
+                )));
+            }
+        }
+        Ok(())
+    }
+
     /// Fitting coordinates of a direction pair: `phi_d` folded by
     /// reciprocity, `theta_d` clamped to the fitted range (no extrapolation
     /// into the grazing cut).

@@ -55,6 +55,6 @@ pub use geometry::{
 };
 pub use material::Brdf;
 pub use merl::{MerlBrdf, TabulateOptions};
-pub use reduce::{Coordinates, Reduction, ReductionKind, Samples};
+pub use reduce::{Coordinates, Reduction, ReductionKind, Samples, MAX_BINS};
 pub use rgl::RglBrdf;
 pub use scattered::{cie_xyz, spectrum_to_rgb, xyz_to_linear_srgb, AltaData, ScatteredBrdf};

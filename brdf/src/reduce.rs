@@ -4,7 +4,7 @@
 //! grazing cut; the fitting coordinates.
 
 use crate::geometry::HalfDiff;
-use crate::Brdf;
+use crate::{Brdf, BrdfError};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
@@ -90,7 +90,37 @@ impl Default for Reduction {
     }
 }
 
+/// Most bins a reduction may have along one angle.
+pub const MAX_BINS: usize = 4096;
+
 impl Reduction {
+    /// Checks bin counts (`1..=`[`MAX_BINS`]) and cuts (finite, in
+    /// `(0, 90]` degrees).
+    ///
+    /// # Errors
+    /// The first field out of range, named with its value.
+    pub fn validate(&self) -> Result<(), BrdfError> {
+        let bad = |name: &'static str, reason: String| Err(BrdfError::Invalid { name, reason });
+        for (name, n) in [
+            ("reduction n_theta_h", self.n_theta_h),
+            ("reduction n_theta_d", self.n_theta_d),
+            ("reduction n_phi_d", self.n_phi_d),
+        ] {
+            if !(1..=MAX_BINS).contains(&n) {
+                return bad(name, format!("{n} is outside 1..={MAX_BINS}"));
+            }
+        }
+        for (name, v) in [
+            ("reduction max_theta_d_deg", self.max_theta_d_deg),
+            ("reduction max_elevation_deg", self.max_elevation_deg),
+        ] {
+            if !(v > 0.0 && v <= 90.0) {
+                return bad(name, format!("{v} degrees is outside (0, 90]"));
+            }
+        }
+        Ok(())
+    }
+
     /// Sets the kind.
     pub fn with_kind(mut self, kind: ReductionKind) -> Self {
         self.kind = kind;

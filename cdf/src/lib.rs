@@ -53,4 +53,4 @@ pub use stats::{
     albedo_quadrature, chi_square, compare_samplers, estimate_albedo, AlbedoEstimate, ChiSquare,
     Quadrature, SamplerRow,
 };
-pub use table::{luminance, CdfTable, TableSettings};
+pub use table::{luminance, CdfTable, TableSettings, MAX_TABLE_BYTES};

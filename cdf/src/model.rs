@@ -205,8 +205,10 @@ impl InverseCdf {
 }
 
 /// The pair of inverse CDFs a sampler needs, for view elevations up to
-/// `max_view` (larger ones are clamped).
+/// `max_view` (larger ones are clamped). Deserialisation checks the
+/// components' order and dimensions and the view range.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "RationalCdfSpec")]
 pub struct RationalCdf {
     /// Material the fit was made for.
     pub material: String,
@@ -216,6 +218,38 @@ pub struct RationalCdf {
     pub theta: InverseCdf,
     /// `phi_l = r_phi(theta_v, theta_l, tau)`.
     pub phi: InverseCdf,
+}
+
+/// The serialised form of a [`RationalCdf`], checked on the way in.
+#[derive(Deserialize)]
+struct RationalCdfSpec {
+    material: String,
+    max_view: f64,
+    theta: InverseCdf,
+    phi: InverseCdf,
+}
+
+impl TryFrom<RationalCdfSpec> for RationalCdf {
+    type Error = CdfError;
+    fn try_from(c: RationalCdfSpec) -> Result<Self, CdfError> {
+        if c.theta.component != Component::Theta || c.phi.component != Component::Phi {
+            return Err(CdfError::Malformed("components out of order".into()));
+        }
+        InverseCdf::new(Component::Theta, c.theta.rational.clone())?;
+        InverseCdf::new(Component::Phi, c.phi.rational.clone())?;
+        if !(c.max_view > 0.0 && c.max_view < FRAC_PI_2) {
+            return Err(CdfError::Malformed(format!(
+                "max view {} rad is outside (0, pi/2)",
+                c.max_view
+            )));
+        }
+        Ok(Self {
+            material: c.material,
+            max_view: c.max_view,
+            theta: c.theta,
+            phi: c.phi,
+        })
+    }
 }
 
 impl RationalCdf {
@@ -246,15 +280,6 @@ impl RationalCdf {
     /// # Errors
     /// [`CdfError::Malformed`] with the parser's message or the mismatch.
     pub fn from_json(s: &str) -> Result<Self, CdfError> {
-        let c: Self = serde_json::from_str(s).map_err(|e| CdfError::Malformed(e.to_string()))?;
-        if c.theta.component != Component::Theta || c.phi.component != Component::Phi {
-            return Err(CdfError::Malformed("components out of order".into()));
-        }
-        InverseCdf::new(Component::Theta, c.theta.rational.clone())?;
-        InverseCdf::new(Component::Phi, c.phi.rational.clone())?;
-        if !(c.max_view > 0.0 && c.max_view < FRAC_PI_2) {
-            return Err(CdfError::Malformed(format!("max view {}", c.max_view)));
-        }
-        Ok(c)
+        serde_json::from_str(s).map_err(|e| CdfError::Malformed(e.to_string()))
     }
 }

@@ -18,8 +18,10 @@ pub fn luminance(rgb: [f64; 3]) -> f64 {
     0.2126 * rgb[0] + 0.7152 * rgb[1] + 0.0722 * rgb[2]
 }
 
-/// Resolution of a [`CdfTable`].
+/// Resolution of a [`CdfTable`]. Deserialisation checks every field as the
+/// builders do, and the table's memory ([`TableSettings::validate`]).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "TableSpec")]
 pub struct TableSettings {
     views: usize,
     theta_cells: usize,
@@ -27,6 +29,32 @@ pub struct TableSettings {
     max_view: f64,
     supersample: usize,
 }
+
+/// The serialised form of [`TableSettings`], checked on the way in.
+#[derive(Deserialize)]
+struct TableSpec {
+    views: usize,
+    theta_cells: usize,
+    phi_cells: usize,
+    max_view: f64,
+    supersample: usize,
+}
+
+impl TryFrom<TableSpec> for TableSettings {
+    type Error = CdfError;
+    fn try_from(s: TableSpec) -> Result<Self, CdfError> {
+        let t = TableSettings::default()
+            .with_views(s.views)?
+            .with_cells(s.theta_cells, s.phi_cells)?
+            .with_max_view(s.max_view)?
+            .with_supersample(s.supersample)?;
+        t.validate()?;
+        Ok(t)
+    }
+}
+
+/// Largest table [`CdfTable::new`] builds, in bytes of its f64 arrays.
+pub const MAX_TABLE_BYTES: usize = 4 << 30;
 
 impl Default for TableSettings {
     /// 16 view elevations on `[0, 80 deg]`, 64 x 64 cells, 2 x 2 BRDF
@@ -95,6 +123,34 @@ impl TableSettings {
         }
         self.supersample = n;
         Ok(self)
+    }
+
+    /// Bytes the table's f64 arrays will take.
+    pub fn table_bytes(&self) -> usize {
+        let (nt, np) = (self.theta_cells, self.phi_cells);
+        8 * self.views * ((nt + 1) + nt * (np + 1) + nt * np)
+    }
+
+    /// Checks the combination: the table must fit in [`MAX_TABLE_BYTES`].
+    ///
+    /// # Errors
+    /// A table above the ceiling, with its size.
+    pub fn validate(&self) -> Result<(), CdfError> {
+        let bytes = self.table_bytes();
+        if bytes > MAX_TABLE_BYTES {
+            return Err(invalid(
+                "table size",
+                format!(
+                    "{} views x {} x {} cells need {:.1} GiB; the ceiling is {} GiB",
+                    self.views,
+                    self.theta_cells,
+                    self.phi_cells,
+                    bytes as f64 / f64::from(1u32 << 30),
+                    MAX_TABLE_BYTES >> 30
+                ),
+            ));
+        }
+        Ok(())
     }
 
     /// Number of view elevations.
@@ -172,8 +228,10 @@ impl CdfTable {
     /// Tabulates `material` (in parallel over cells).
     ///
     /// # Errors
-    /// A view elevation where the material reflects nothing or returns NaN.
+    /// A table above [`MAX_TABLE_BYTES`], or a view elevation where the
+    /// material reflects nothing or returns NaN.
     pub fn new(material: &dyn Brdf, settings: TableSettings) -> Result<Self, CdfError> {
+        settings.validate()?;
         let slices = (0..settings.views)
             .map(|i| Self::slice(material, &settings, Self::view_of(&settings, i)))
             .collect::<Result<_, _>>()?;

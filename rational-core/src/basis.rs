@@ -194,6 +194,13 @@ pub(crate) const STACK_DIMS: usize = 4;
 /// keeps on the stack.
 pub(crate) const STACK_TABLE: usize = 512;
 
+/// Most functions a basis may have (a fit file declaring more is refused
+/// before anything is allocated).
+pub const MAX_BASIS_LEN: usize = 100_000;
+
+/// Most coordinates a basis may have (the pole check's grid grows as 2^d).
+pub const MAX_DIMENSION: usize = 16;
+
 /// Largest weight [`weighted_graded_indices`] accepts.
 pub const MAX_DEGREE_WEIGHT: u16 = 16;
 
@@ -335,6 +342,21 @@ impl Basis {
         weights: &[u16],
     ) -> Result<Self, FitError> {
         check_weights(weights, domain.dim())?;
+        if domain.dim() > MAX_DIMENSION {
+            return Err(FitError::InvalidSetting {
+                name: "dimension",
+                reason: format!(
+                    "{} coordinates; at most {MAX_DIMENSION} are supported",
+                    domain.dim()
+                ),
+            });
+        }
+        if len > MAX_BASIS_LEN {
+            return Err(FitError::InvalidSetting {
+                name: "basis length",
+                reason: format!("{len} functions; at most {MAX_BASIS_LEN} are supported"),
+            });
+        }
         if len == 0 {
             return Err(FitError::InvalidSetting {
                 name: "basis length",

@@ -40,7 +40,8 @@ mod settings;
 pub mod verify;
 
 pub use basis::{
-    graded_indices, weighted_graded_indices, Basis, BasisFamily, Domain, MAX_DEGREE_WEIGHT,
+    graded_indices, weighted_graded_indices, Basis, BasisFamily, Domain, MAX_BASIS_LEN,
+    MAX_DEGREE_WEIGHT, MAX_DIMENSION,
 };
 pub use data::IntervalData;
 pub use error::FitError;

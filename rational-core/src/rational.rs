@@ -31,7 +31,8 @@ impl RationalFunction {
     /// Builds `p/q`; the basis must have at least `max(n_p, n_q)` functions.
     ///
     /// # Errors
-    /// Empty or too long coefficient vectors, non-finite coefficients.
+    /// Empty or too long coefficient vectors, non-finite coefficients, a
+    /// denominator whose coefficients are all zero.
     pub fn new(basis: Basis, numerator: Vec<f64>, denominator: Vec<f64>) -> Result<Self, FitError> {
         if numerator.is_empty() || denominator.is_empty() {
             return Err(FitError::Malformed(
@@ -48,6 +49,11 @@ impl RationalFunction {
         }
         if numerator.iter().chain(&denominator).any(|c| !c.is_finite()) {
             return Err(FitError::Malformed("non-finite coefficient".into()));
+        }
+        if denominator.iter().all(|&c| c == 0.0) {
+            return Err(FitError::Malformed(
+                "the denominator is identically zero".into(),
+            ));
         }
         Ok(Self {
             basis,
