@@ -27,24 +27,26 @@ pub struct FitArgs {
     /// Fitting coordinates: sqrt (MERL warp of theta_h), radians or cosines.
     #[arg(long, default_value = "sqrt")]
     coords: String,
-    /// Relative half-width of the intervals.
-    #[arg(long, default_value_t = 0.05)]
+    /// Relative half-width of the intervals, in (0, 1).
+    #[arg(long, default_value_t = 0.05, value_parser = crate::args::relative_tolerance)]
     rel_tol: f64,
     /// Smallest half-width as a fraction of each channel's median value (noise floor).
-    #[arg(long, default_value_t = 1e-2)]
+    #[arg(long, default_value_t = 1e-2, value_parser = crate::args::fraction)]
     noise_floor: f64,
     /// Largest coefficient budget per channel.
-    #[arg(long, default_value_t = 60)]
+    #[arg(long, default_value_t = 60, value_parser = crate::args::coefficients)]
     max_coeffs: usize,
-    /// Samples with theta_d above this (degrees) are not fitted.
-    #[arg(long, default_value_t = 78.0)]
+    /// Samples with theta_d above this (degrees, in (0, 90]) are not fitted.
+    #[arg(long, default_value_t = 78.0, value_parser = crate::args::angle_deg)]
     max_theta_d: f64,
-    /// Cells with either direction further than this from the normal (degrees) are not sampled.
-    #[arg(long, default_value_t = 70.0)]
+    /// Cells with either direction further than this from the normal
+    /// (degrees, in (0, 90]) are not sampled.
+    #[arg(long, default_value_t = 70.0, value_parser = crate::args::angle_deg)]
     max_elevation: f64,
-    /// Grid resolution as `NH,ND[,NP]` (theta_h, theta_d, phi_d bins).
-    #[arg(long)]
-    resolution: Option<String>,
+    /// Grid resolution as `NH,ND[,NP]` (theta_h, theta_d, phi_d bins, each
+    /// in 2..=4096).
+    #[arg(long, value_parser = crate::args::bins)]
+    resolution: Option<crate::args::Bins>,
     /// Solver backend.
     #[arg(long, default_value = "native")]
     backend: Backend,
@@ -67,11 +69,11 @@ pub struct FitArgs {
     /// 24^3) whose validation renders (a sphere under three directional
     /// lights and under a sky) reach this mean CIEDE2000 against the table.
     /// MERL and RGL files only.
-    #[arg(long, conflicts_with_all = ["perceptual", "spread"])]
+    #[arg(long, conflicts_with_all = ["perceptual", "spread"], value_parser = crate::args::positive)]
     target_de: Option<f64>,
     /// Seconds `--target-de` may spend on fits and renders before it
     /// returns the best fit so far.
-    #[arg(long, default_value_t = 120.0)]
+    #[arg(long, default_value_t = 120.0, value_parser = crate::args::positive)]
     time_budget: f64,
     /// Degree weights of the basis order, one per fitting coordinate
     /// (`theta_h,theta_d[,phi_d]`): `1,2` spends twice the degree on
@@ -130,15 +132,7 @@ fn reduction(args: &FitArgs) -> Result<Reduction> {
         // The full MERL grid is 1.46 M cells per channel; default to a 45^3 subgrid.
         r = r.with_resolution(45, 45).with_phi_resolution(45);
     }
-    if let Some(res) = &args.resolution {
-        let v: Vec<usize> = res
-            .split(',')
-            .map(|s| s.trim().parse::<usize>())
-            .collect::<Result<_, _>>()
-            .with_context(|| format!("--resolution `{res}` is not NH,ND[,NP]"))?;
-        if v.len() < 2 || v.iter().any(|&n| n < 2) {
-            bail!("--resolution `{res}`: give at least two bin counts, each >= 2");
-        }
+    if let Some(crate::args::Bins(v)) = &args.resolution {
         r = r.with_resolution(v[0], v[1]);
         if let Some(&p) = v.get(2) {
             r = r.with_phi_resolution(p);
@@ -164,6 +158,9 @@ pub fn run_fit(args: FitArgs) -> Result<()> {
     if args.max_widenings > 0 {
         fit_settings = fit_settings.with_widening(2.0, args.max_widenings)?;
     }
+    // Every flag is checked whatever the format, even those ALTA data
+    // (fitted in the file's own parametrisation) do not use.
+    let checked_reduction = reduction(&args)?;
     if args.format == "alta" {
         return run_fit_alta(&args, &fit_settings);
     }
@@ -171,7 +168,7 @@ pub fn run_fit(args: FitArgs) -> Result<()> {
         return run_fit_target(&args, fit_settings, target);
     }
     let mut settings = BrdfFitSettings::default()
-        .with_reduction(reduction(&args)?)
+        .with_reduction(checked_reduction)
         .with_rel_tol(args.rel_tol)?
         .with_noise_floor(args.noise_floor)?
         .with_colour_mode(args.colour.unwrap_or_default())

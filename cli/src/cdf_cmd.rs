@@ -54,7 +54,7 @@ pub struct StatsArgs {
     #[arg(long)]
     format: Option<String>,
     /// Samples per estimate.
-    #[arg(long, default_value_t = 100_000)]
+    #[arg(long, default_value_t = 100_000, value_parser = crate::args::samples)]
     samples: usize,
     /// View elevations in degrees, comma-separated.
     #[arg(long, default_value = "0,30,60,80")]

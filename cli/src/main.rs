@@ -1,5 +1,6 @@
 //! `ratfit`: fit data with rational functions inside error bounds.
 
+mod args;
 mod bench;
 mod brdf_cmd;
 mod canvas;
@@ -147,10 +148,10 @@ struct DataArgs {
     #[arg(long)]
     intervals: bool,
     /// Relative half-width of the intervals around the values (default 0.01).
-    #[arg(long, conflicts_with = "abs_tol")]
+    #[arg(long, conflicts_with = "abs_tol", value_parser = args::relative_tolerance)]
     rel_tol: Option<f64>,
     /// Absolute half-width of the intervals around the values.
-    #[arg(long)]
+    #[arg(long, value_parser = args::positive)]
     abs_tol: Option<f64>,
 }
 
@@ -160,10 +161,10 @@ struct FitArgs {
     #[arg(long, default_value = "chebyshev")]
     basis: BasisFamily,
     /// Smallest coefficient budget n_p + n_q.
-    #[arg(long, default_value_t = 2)]
+    #[arg(long, default_value_t = 2, value_parser = args::coefficients)]
     min_coeffs: usize,
     /// Largest coefficient budget n_p + n_q.
-    #[arg(long, default_value_t = 40)]
+    #[arg(long, default_value_t = 40, value_parser = args::coefficients)]
     max_coeffs: usize,
     /// Solver backend (see `ratfit backends`).
     #[arg(long, default_value = "native")]
@@ -179,7 +180,7 @@ struct FitArgs {
     #[arg(long, default_value = "grid")]
     poles: PoleControl,
     /// Widen the intervals by this factor when nothing is feasible...
-    #[arg(long, default_value_t = 2.0)]
+    #[arg(long, default_value_t = 2.0, value_parser = args::positive)]
     widen: f64,
     /// ...at most this many times.
     #[arg(long, default_value_t = 0)]

@@ -16,8 +16,8 @@ pub struct OverrideArgs {
     /// Image size as WIDTHxHEIGHT.
     #[arg(long)]
     pub resolution: Option<String>,
-    /// Samples per pixel.
-    #[arg(long)]
+    /// Samples per pixel (1..=2^20).
+    #[arg(long, value_parser = crate::args::spp)]
     pub spp: Option<usize>,
     /// Seed of the random streams.
     #[arg(long)]

@@ -171,6 +171,37 @@ fn bad_input_gives_clear_errors() {
         let err = String::from_utf8_lossy(&out.stderr);
         assert!(err.contains(says), "{weights}: {err}");
     }
+
+    // Numeric flags are checked where they are read, whatever the format.
+    let material = dir.join("material.bsdf");
+    std::fs::write(&material, "not read").unwrap();
+    for (format, flag, value, says) in [
+        ("rgl", "--max-theta-d", "nan", "not finite"),
+        ("rgl", "--max-elevation", "-5", "outside (0, 90]"),
+        ("rgl", "--rel-tol", "5", "outside (0, 1)"),
+        ("alta", "--rel-tol", "5", "outside (0, 1)"),
+        ("alta", "--coords", "bogus", "unknown coordinates"),
+        ("rgl", "--resolution", "100000,100000", "outside 1..=4096"),
+        ("rgl", "--resolution", "24,24,24,24", "two or three"),
+        ("rgl", "--max-coeffs", "1", "at least 2"),
+        ("rgl", "--target-de", "0", "positive"),
+    ] {
+        let out = ratfit()
+            .arg("fit")
+            .arg(&material)
+            .args(["--format", format, &format!("{flag}={value}"), "-o"])
+            .arg(dir.join("f.json"))
+            .output()
+            .unwrap();
+        assert!(!out.status.success(), "{flag} {value}");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains(says), "{flag} {value}: {err}");
+    }
+    let out = ratfit()
+        .args(["sample-stats", "a.json", "b.json", "--samples", "0"])
+        .output()
+        .unwrap();
+    assert!(String::from_utf8_lossy(&out.stderr).contains("outside 1..="));
     std::fs::remove_dir_all(dir).ok();
 }
 

@@ -414,6 +414,16 @@ fn bad_scenes_give_named_errors() {
             "albedo",
         ),
         ("width = 24", "width = 0", "resolution"),
+        (
+            "kind = \"direct\"",
+            "kind = \"direct\"\nspp = 1000000000000",
+            "integrator.spp",
+        ),
+        (
+            "kind = \"direct\"",
+            "kind = \"direct\"\npattern = \"halton\"",
+            "halton",
+        ),
         ("radius = 1.0", "radius = 1.0\ncolour = 3", "colour"),
         (
             "kind = \"uniform\"\nradiance = [1.0, 1.0, 1.0]",

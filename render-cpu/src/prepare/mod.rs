@@ -309,6 +309,10 @@ pub fn prepare(
     ))
 }
 
+/// Most samples per pixel a scene may ask for (about a million: far beyond
+/// convergence, and a bound on the time a typo can cost).
+pub const MAX_SPP: usize = 1 << 20;
+
 fn integrator_settings(
     desc: &SceneDescription,
     origin: &str,
@@ -326,10 +330,10 @@ fn integrator_settings(
         max_depth: i.max_depth,
         shadows: i.shadows,
     };
-    if s.spp == 0 {
+    if !(1..=MAX_SPP).contains(&s.spp) {
         return Err(scene_error(
             origin,
-            "integrator.spp must be at least 1".into(),
+            format!("integrator.spp {} is outside 1..={MAX_SPP}", s.spp),
         ));
     }
     if s.kind == IntegratorKind::Path && !(1..=64).contains(&s.max_depth) {
