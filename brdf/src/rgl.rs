@@ -49,7 +49,7 @@ pub fn parse_tensor_file(bytes: &[u8], path: &Path) -> Result<HashMap<String, Fi
     let mut fields = HashMap::new();
     for _ in 0..count {
         let name_len = u16::from_le_bytes(take(&mut pos, 2)?.try_into().expect("2 bytes")) as usize;
-        let name = String::from_utf8_lossy(take(&mut pos, name_len)?).into_owned();
+        let name = short_name(take(&mut pos, name_len)?);
         let ndim = u16::from_le_bytes(take(&mut pos, 2)?.try_into().expect("2 bytes")) as usize;
         let dtype = take(&mut pos, 1)?[0];
         let offset = u64::from_le_bytes(take(&mut pos, 8)?.try_into().expect("8 bytes")) as usize;
@@ -261,6 +261,51 @@ pub struct RglBrdf {
     view_as_incident: bool,
 }
 
+/// A field name as text for messages: a corrupt file may hold kilobytes of
+/// raw bytes there, so at most 24 bytes, printable ASCII as is and the rest
+/// as `\xNN`.
+fn short_name(raw: &[u8]) -> String {
+    let mut out: String = raw
+        .iter()
+        .take(24)
+        .map(|&b| {
+            if b.is_ascii_graphic() || b == b' ' {
+                char::from(b).to_string()
+            } else {
+                format!("\\x{b:02x}")
+            }
+        })
+        .collect();
+    if raw.len() > 24 {
+        out.push_str(&format!("... ({} bytes)", raw.len()));
+    }
+    out
+}
+
+/// Checks an angle axis: finite, strictly increasing, inside `range`.
+fn check_axis(name: &str, v: &[f64], range: (f64, f64)) -> Result<(), String> {
+    if let Some(x) = v.iter().find(|x| !x.is_finite()) {
+        return Err(format!("`{name}` holds a non-finite value ({x})"));
+    }
+    if let Some(w) = v.windows(2).find(|w| w[1] <= w[0]) {
+        return Err(format!(
+            "`{name}` is not increasing ({} then {})",
+            w[0], w[1]
+        ));
+    }
+    let slack = 1e-6;
+    if let Some(x) = v
+        .iter()
+        .find(|&&x| x < range.0 - slack || x > range.1 + slack)
+    {
+        return Err(format!(
+            "`{name}` value {x} is outside [{:.4}, {:.4}] rad",
+            range.0, range.1
+        ));
+    }
+    Ok(())
+}
+
 fn field<'a>(
     f: &'a HashMap<String, Field>,
     name: &str,
@@ -332,6 +377,8 @@ impl RglBrdf {
                 ndf.shape, sigma.shape, vndf.shape, rgb.shape
             )));
         }
+        check_axis("theta_i", &theta_i.data, (0.0, PI / 2.0)).map_err(&bad)?;
+        check_axis("phi_i", &phi_i.data, (-PI, 2.0 * PI)).map_err(&bad)?;
         for (n, fl) in [("ndf", ndf), ("sigma", sigma), ("vndf", vndf), ("rgb", rgb)] {
             if let Some(v) = fl.data.iter().find(|v| !v.is_finite()) {
                 return Err(bad(format!("`{n}` holds a non-finite value ({v})")));

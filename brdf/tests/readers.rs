@@ -306,3 +306,68 @@ fn rgl_albedo_matches_the_independent_renderer_under_each_convention() {
         );
     }
 }
+
+/// Byte offset and element width of field `name` in a tensor file.
+fn tensor_field(bytes: &[u8], name: &str) -> (usize, usize) {
+    let count = u32::from_le_bytes(bytes[14..18].try_into().unwrap()) as usize;
+    let mut pos = 18;
+    for _ in 0..count {
+        let len = u16::from_le_bytes([bytes[pos], bytes[pos + 1]]) as usize;
+        let field = &bytes[pos + 2..pos + 2 + len];
+        pos += 2 + len;
+        let ndim = u16::from_le_bytes([bytes[pos], bytes[pos + 1]]) as usize;
+        let dtype = bytes[pos + 2];
+        let offset = u64::from_le_bytes(bytes[pos + 3..pos + 11].try_into().unwrap()) as usize;
+        pos += 11 + 8 * ndim;
+        if field == name.as_bytes() {
+            return (offset, if dtype == 10 { 4 } else { 8 });
+        }
+    }
+    panic!("no field {name}");
+}
+
+#[test]
+fn rgl_axes_are_checked_and_corrupt_names_are_quoted_short() {
+    let Some(dir) = data_dir() else {
+        eprintln!("SKIPPED rgl_axes_are_checked: no data directory (set RATFIT_DATA)");
+        return;
+    };
+    let path = dir.join("rgl/aurora_white_rgb.bsdf");
+    let good = std::fs::read(&path).unwrap();
+    let (offset, width) = tensor_field(&good, "theta_i");
+    let write = |bytes: &mut Vec<u8>, k: usize, v: f64| {
+        let at = offset + k * width;
+        if width == 4 {
+            bytes[at..at + 4].copy_from_slice(&(v as f32).to_le_bytes());
+        } else {
+            bytes[at..at + 8].copy_from_slice(&v.to_le_bytes());
+        }
+    };
+    for (value, says) in [
+        (f64::NAN, "non-finite"),
+        (f64::INFINITY, "non-finite"),
+        (-1.0, "not increasing"),
+        (3.0, "not increasing"),
+    ] {
+        let mut bytes = good.clone();
+        write(&mut bytes, 1, value);
+        let e = RglBrdf::from_bytes(&bytes, &path, "edited".into())
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("theta_i") && e.contains(says), "{value}: {e}");
+    }
+    // A field name of 5,000 raw bytes (with an unsupported element type,
+    // so the message quotes it) is quoted as a short, escaped prefix.
+    let mut bytes = good[..14].to_vec();
+    bytes.extend_from_slice(&1u32.to_le_bytes());
+    bytes.extend_from_slice(&5000u16.to_le_bytes());
+    bytes.extend(std::iter::repeat_n(0xffu8, 5000));
+    bytes.extend_from_slice(&0u16.to_le_bytes());
+    bytes.push(99);
+    bytes.extend_from_slice(&0u64.to_le_bytes());
+    let e = RglBrdf::from_bytes(&bytes, &path, "edited".into())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("element type 99"), "{e}");
+    assert!(e.len() < 400, "{} bytes: {e}", e.len());
+}
