@@ -193,8 +193,7 @@ pub fn run_fit(args: FitArgs) -> Result<()> {
         println!("{report}");
     }
     let out = serde_json::json!({ "brdf": fitted, "report": report });
-    std::fs::write(&args.output, serde_json::to_string_pretty(&out)?)
-        .with_context(|| format!("cannot write {}", args.output.display()))?;
+    crate::output::write(&args.output, serde_json::to_string_pretty(&out)?)?;
     eprintln!("wrote {}", args.output.display());
     Ok(())
 }
@@ -240,8 +239,7 @@ fn run_fit_target(args: &FitArgs, fit_settings: FitSettings, target: f64) -> Res
     );
     println!("{target_report}");
     let out = serde_json::json!({ "brdf": fitted, "target": target_report });
-    std::fs::write(&args.output, serde_json::to_string_pretty(&out)?)
-        .with_context(|| format!("cannot write {}", args.output.display()))?;
+    crate::output::write(&args.output, serde_json::to_string_pretty(&out)?)?;
     eprintln!("wrote {}", args.output.display());
     Ok(())
 }
@@ -268,8 +266,7 @@ fn run_fit_alta(args: &FitArgs, settings: &FitSettings) -> Result<()> {
         reports.push(r);
     }
     let out = serde_json::json!({ "alta_param_in": data.param_in, "functions": functions, "reports": reports });
-    std::fs::write(&args.output, serde_json::to_string_pretty(&out)?)
-        .with_context(|| format!("cannot write {}", args.output.display()))?;
+    crate::output::write(&args.output, serde_json::to_string_pretty(&out)?)?;
     eprintln!("wrote {}", args.output.display());
     Ok(())
 }

@@ -127,8 +127,7 @@ pub fn run_cdf(args: CdfArgs) -> Result<()> {
         table: table_settings,
         report: Some(report),
     };
-    std::fs::write(&args.output, serde_json::to_string_pretty(&file)?)
-        .with_context(|| format!("cannot write {}", args.output.display()))?;
+    crate::output::write(&args.output, serde_json::to_string_pretty(&file)?)?;
     eprintln!("wrote {}", args.output.display());
     Ok(())
 }
@@ -199,8 +198,7 @@ pub fn run_stats(args: StatsArgs) -> Result<()> {
     );
     print!("{}", format_rows(&rows));
     if let Some(path) = args.csv {
-        std::fs::write(&path, csv_rows(&material.name(), &rows))
-            .with_context(|| format!("cannot write {}", path.display()))?;
+        crate::output::write(&path, csv_rows(&material.name(), &rows))?;
         eprintln!("wrote {}", path.display());
     }
     Ok(())

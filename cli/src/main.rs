@@ -9,6 +9,7 @@ mod chart;
 mod csv;
 mod demo;
 mod npy;
+mod output;
 mod plot;
 mod png;
 mod progress;
@@ -301,8 +302,7 @@ fn main() -> Result<()> {
             } else {
                 println!("{report}");
             }
-            std::fs::write(&output, serde_json::to_string_pretty(&report)?)
-                .with_context(|| format!("cannot write {}", output.display()))?;
+            crate::output::write(&output, serde_json::to_string_pretty(&report)?)?;
             eprintln!("wrote {}", output.display());
         }
         Command::Fit(args) => brdf_cmd::run_fit(args)?,
@@ -363,8 +363,7 @@ fn main() -> Result<()> {
                 };
             match output {
                 Some(o) => {
-                    std::fs::write(&o, &bytes)
-                        .with_context(|| format!("cannot write {}", o.display()))?;
+                    crate::output::write(&o, &bytes)?;
                     eprintln!("wrote {} ({} bytes)", o.display(), bytes.len());
                 }
                 None if to == "binary" => bail!("give -o FILE for binary output"),

@@ -90,9 +90,12 @@ impl Image {
     /// # Errors
     /// The file cannot be written.
     pub fn write_exr(&self, path: &Path) -> Result<(), RenderError> {
-        exr::prelude::write_rgb_file(path, self.width, self.height, |x, y| {
-            let p = self.at(x, y);
-            (p[0], p[1], p[2])
+        write_atomic(path, |tmp| {
+            exr::prelude::write_rgb_file(tmp, self.width, self.height, |x, y| {
+                let p = self.at(x, y);
+                (p[0], p[1], p[2])
+            })
+            .map_err(|e| std::io::Error::other(e.to_string()))
         })
         .map_err(|e| image_error(path, e.to_string()))
     }
@@ -206,17 +209,64 @@ pub fn encode_png(width: usize, height: usize, rgb: &[u8]) -> Vec<u8> {
     out
 }
 
-/// Writes 8-bit RGB as PNG.
+/// Writes 8-bit RGB as PNG (atomically, see [`write_atomic`]).
 ///
 /// # Errors
 /// The file cannot be written.
 pub fn write_png(path: &Path, width: usize, height: usize, rgb: &[u8]) -> Result<(), RenderError> {
-    std::fs::write(path, encode_png(width, height, rgb)).map_err(|e| crate::error::io(path, e))
+    let bytes = encode_png(width, height, rgb);
+    write_atomic(path, |tmp| std::fs::write(tmp, &bytes)).map_err(|e| crate::error::io(path, e))
+}
+
+/// Writes `path` by `write` into a temporary file beside it, then renames
+/// it into place: a failed or interrupted command never leaves a truncated
+/// output, and a reader never sees a half-written file.
+///
+/// # Errors
+/// Whatever `write` or the rename returns (the temporary file is removed).
+pub fn write_atomic(
+    path: &Path,
+    write: impl FnOnce(&Path) -> std::io::Result<()>,
+) -> std::io::Result<()> {
+    let name = path
+        .file_name()
+        .ok_or_else(|| std::io::Error::new(std::io::ErrorKind::InvalidInput, "no file name"))?;
+    let mut tmp_name = std::ffi::OsString::from(".");
+    tmp_name.push(name);
+    tmp_name.push(format!(".partial-{}", std::process::id()));
+    let tmp = path.with_file_name(tmp_name);
+    let result = write(&tmp).and_then(|()| std::fs::rename(&tmp, path));
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn atomic_writes_leave_the_old_file_or_the_new_one() {
+        let dir = std::env::temp_dir().join(format!("ratfit-atomic-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("out.txt");
+        std::fs::write(&path, "old").unwrap();
+        let failed = write_atomic(&path, |tmp| {
+            std::fs::write(tmp, "half")?;
+            Err(std::io::Error::other("interrupted"))
+        });
+        assert!(failed.is_err());
+        assert_eq!(std::fs::read_to_string(&path).unwrap(), "old");
+        assert_eq!(
+            std::fs::read_dir(&dir).unwrap().count(),
+            1,
+            "no temporary file left"
+        );
+        write_atomic(&path, |tmp| std::fs::write(tmp, "new")).unwrap();
+        assert_eq!(std::fs::read_to_string(&path).unwrap(), "new");
+        std::fs::remove_dir_all(&dir).ok();
+    }
 
     #[test]
     fn png_is_decodable_and_checksums_are_right() {

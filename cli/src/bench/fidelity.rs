@@ -594,8 +594,8 @@ fn write_outputs(
             r.note.replace('"', "'")
         );
     }
-    std::fs::write(args.out.join("results.csv"), csv)?;
-    std::fs::write(
+    crate::output::write(args.out.join("results.csv"), csv)?;
+    crate::output::write(
         args.out.join("summary.md"),
         summary(args, rows, noise, wall_s),
     )?;
@@ -644,7 +644,7 @@ fn write_outputs(
         panels,
         columns: 3,
     };
-    std::fs::write(args.out.join("de_vs_bytes.svg"), figure.svg())?;
+    crate::output::write(args.out.join("de_vs_bytes.svg"), figure.svg())?;
     figure.png(&args.out.join("de_vs_bytes.png"))?;
     Ok(())
 }

@@ -247,7 +247,7 @@ mod imp {
                 r.de_vs_cpu, r.de_max_vs_cpu, r.de_vs_table
             );
         }
-        std::fs::write(args.out.join("results.csv"), &csv)?;
+        crate::output::write(args.out.join("results.csv"), &csv)?;
 
         let (w, h) = resolution.unwrap_or((desc.camera.width, desc.camera.height));
         let mut md = format!(
@@ -272,7 +272,7 @@ mod imp {
             first_image.unwrap_or_default(),
             start.elapsed().as_secs_f64()
         );
-        std::fs::write(args.out.join("summary.md"), &md)?;
+        crate::output::write(args.out.join("summary.md"), &md)?;
 
         let series = |f: &dyn Fn(&Row) -> (f64, f64), k: usize| -> Vec<(usize, f64, f64)> {
             rows.iter().map(|r| (k, f(r).0, f(r).1)).collect()
@@ -300,7 +300,7 @@ mod imp {
             ],
             columns: 2,
         };
-        std::fs::write(args.out.join("frame_time.svg"), figure.svg())?;
+        crate::output::write(args.out.join("frame_time.svg"), figure.svg())?;
         figure.png(&args.out.join("frame_time.png"))?;
         print!("{md}");
         eprintln!("wrote {}", args.out.display());

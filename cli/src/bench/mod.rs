@@ -187,11 +187,11 @@ fn run_fit(a: FitBenchArgs) -> Result<()> {
     results::write_csv(&a.out.join("results.csv"), &rows, threads, &info.commit)?;
     let names: Vec<&str> = backends.iter().map(|b| b.name()).collect();
     let (err, time) = summary::figures(&rows, &names);
-    std::fs::write(a.out.join("error_vs_time.svg"), err.svg())?;
+    crate::output::write(a.out.join("error_vs_time.svg"), err.svg())?;
     err.png(&a.out.join("error_vs_time.png"))?;
-    std::fs::write(a.out.join("time_vs_samples.svg"), time.svg())?;
+    crate::output::write(a.out.join("time_vs_samples.svg"), time.svg())?;
     let md = summary::summary_md(&rows, &info);
-    std::fs::write(a.out.join("summary.md"), &md)?;
+    crate::output::write(a.out.join("summary.md"), &md)?;
     println!("\n{md}");
     println!(
         "wrote {0}/results.csv, error_vs_time.png, error_vs_time.svg, time_vs_samples.svg, summary.md ({1:.0} s)",

@@ -329,7 +329,7 @@ pub fn run(args: PaperArgs) -> Result<()> {
     r.fps_experiment()?;
     let _ = writeln!(r.md, "Total {:.0} s.", start.elapsed().as_secs_f64());
     let path: &Path = &args.out.join("experiments.md");
-    std::fs::write(path, &r.md)?;
+    crate::output::write(path, &r.md)?;
     println!("{}", r.md);
     println!("wrote {}", path.display());
     Ok(())

@@ -156,7 +156,7 @@ pub fn run(args: RenderBenchArgs) -> Result<()> {
             r.sampler_bytes
         );
     }
-    std::fs::write(args.out.join("render.csv"), csv)?;
+    crate::output::write(args.out.join("render.csv"), csv)?;
 
     let names: Vec<String> = args.samplers.iter().map(|s| s.name().to_string()).collect();
     let series = |f: &dyn Fn(&Row) -> (f64, f64)| -> Vec<(usize, f64, f64)> {
@@ -194,7 +194,7 @@ pub fn run(args: RenderBenchArgs) -> Result<()> {
         ],
         columns: 2,
     };
-    std::fs::write(args.out.join("error_vs_time.svg"), figure.svg())?;
+    crate::output::write(args.out.join("error_vs_time.svg"), figure.svg())?;
     figure.png(&args.out.join("error_vs_time.png"))?;
 
     // Equal time: each sampler's RMSE interpolated at the longest time all reach.
@@ -248,7 +248,7 @@ pub fn run(args: RenderBenchArgs) -> Result<()> {
             );
         }
     }
-    std::fs::write(args.out.join("summary.md"), &md)?;
+    crate::output::write(args.out.join("summary.md"), &md)?;
     println!("\n{md}");
     println!(
         "wrote {}/render.csv, error_vs_time.svg/.png, summary.md, reference.exr",

@@ -74,7 +74,7 @@ pub fn write_csv(path: &Path, rows: &[Row], threads: usize, commit: &str) -> Res
         s.push_str(&fields.join(","));
         s.push('\n');
     }
-    std::fs::write(path, s).with_context(|| format!("cannot write {}", path.display()))
+    crate::output::write(path, s)
 }
 
 /// Splits one CSV line, honouring double quotes.

@@ -184,8 +184,7 @@ pub fn run(args: RglBenchArgs) -> Result<()> {
                     }
                     rows.extend(new);
                     let json = fits_dir.join(format!("{stem}_{dims}d.json"));
-                    std::fs::write(&json, serde_json::to_string(&fitted)?)
-                        .with_context(|| format!("cannot write {}", json.display()))?;
+                    crate::output::write(&json, serde_json::to_string(&fitted)?)?;
                 }
                 Err(e) => {
                     eprintln!("{stem} {dims}-D: {e}");
@@ -251,7 +250,7 @@ fn write_outputs(
             r.outcome
         );
     }
-    std::fs::write(args.out.join("results.csv"), csv)?;
+    crate::output::write(args.out.join("results.csv"), csv)?;
 
     let threads = rayon::current_num_threads();
     let mut md = format!(
@@ -302,7 +301,7 @@ fn write_outputs(
             join(&|r| format!("{:.2}", r.polynomial_max_rel)),
         );
     }
-    std::fs::write(args.out.join("summary.md"), &md)?;
+    crate::output::write(args.out.join("summary.md"), &md)?;
 
     // Error against cost: one panel per dimension, one series per interval
     // width used.
@@ -338,7 +337,7 @@ fn write_outputs(
         panels,
         columns: 2,
     };
-    std::fs::write(args.out.join("error_vs_time.svg"), figure.svg())?;
+    crate::output::write(args.out.join("error_vs_time.svg"), figure.svg())?;
     figure.png(&args.out.join("error_vs_time.png"))?;
     if finished {
         print!("{md}");
