@@ -160,6 +160,29 @@ pub fn shader_source_named(
     Ok(source_with_prefix(b, l, prefix))
 }
 
+/// `{prefix}_to_cut(d)`: beyond the fit's elevation cut, directions move
+/// to the cut at the same azimuth (`brdf::clamp_elevation`); empty for a fit
+/// of the whole hemisphere.
+fn to_cut_fn(b: &CompactBrdf, l: Language, prefix: &str) -> String {
+    if !b.has_elevation_cut() {
+        return String::new();
+    }
+    let s = syntax(l);
+    let (f, v3) = (s.float, s.vec3);
+    let (sin_cut, cos_cut) = b.max_elevation.sin_cos();
+    let mut out = fn_header(l, &format!("{prefix}_to_cut"), &[("d", v3)], v3);
+    out += &format!("    if (d.z >= {}) {{ return d; }}\n", lit(cos_cut));
+    out += &format!("    {} = length(d.xy);\n", decl(l, "s", f, false));
+    out += "    if (s <= 0.0) { return d; }\n";
+    out += &format!(
+        "    return {v3}(d.x * ({} / s), d.y * ({} / s), {});\n}}\n\n",
+        lit(sin_cut),
+        lit(sin_cut),
+        lit(cos_cut)
+    );
+    out
+}
+
 fn source_with_prefix(b: &CompactBrdf, l: Language, prefix: &str) -> String {
     let upper = prefix.to_ascii_uppercase();
     let s = syntax(l);
@@ -226,21 +249,7 @@ fn source_with_prefix(b: &CompactBrdf, l: Language, prefix: &str) -> String {
     for (k, c) in b.channels.iter().enumerate() {
         out += &channel_fn(l, &s, c, k, prefix);
     }
-    if b.has_elevation_cut() {
-        // Beyond the fit's elevation cut, directions move to the cut at the
-        // same azimuth (`brdf::clamp_elevation`).
-        let (sin_cut, cos_cut) = b.max_elevation.sin_cos();
-        out += &fn_header(l, &format!("{prefix}_to_cut"), &[("d", v3)], v3);
-        out += &format!("    if (d.z >= {}) {{ return d; }}\n", lit(cos_cut));
-        out += &format!("    {} = length(d.xy);\n", decl(l, "s", f, false));
-        out += "    if (s <= 0.0) { return d; }\n";
-        out += &format!(
-            "    return {v3}(d.x * ({} / s), d.y * ({} / s), {});\n}}\n\n",
-            lit(sin_cut),
-            lit(sin_cut),
-            lit(cos_cut)
-        );
-    }
+    out += &to_cut_fn(b, l, prefix);
     out += &fn_header(l, &format!("{prefix}_brdf"), &[("wi", v3), ("wo", v3)], v3);
     out += &format!("    if (wi.z <= 0.0 || wo.z <= 0.0) {{ return {v3}(0.0, 0.0, 0.0); }}\n");
     let args = if b.has_elevation_cut() {

@@ -18,9 +18,11 @@ pub struct FitArgs {
     /// (ALTA text data, fitted in the file's own parametrisation).
     #[arg(long)]
     format: String,
-    /// 2 (rho(theta_h, theta_d)) or 3 (theta_h, theta_d, phi_d).
-    #[arg(long, default_value_t = 2)]
-    dims: usize,
+    /// 2 (rho(theta_h, theta_d)) or 3 (theta_h, theta_d, phi_d). Default:
+    /// 2, and with `--target-de` the slice first and 3-D when the slice
+    /// cannot reach the target.
+    #[arg(long)]
+    dims: Option<usize>,
     /// 2-D only: use the spread over phi_d as the interval instead of the phi_d = pi/2 slice.
     #[arg(long)]
     spread: bool,
@@ -33,9 +35,10 @@ pub struct FitArgs {
     /// Smallest half-width as a fraction of each channel's median value (noise floor).
     #[arg(long, default_value_t = 1e-2, value_parser = crate::args::fraction)]
     noise_floor: f64,
-    /// Largest coefficient budget per channel.
-    #[arg(long, default_value_t = 60, value_parser = crate::args::coefficients)]
-    max_coeffs: usize,
+    /// Largest coefficient budget per channel (default 60, and 120 with
+    /// `--target-de`).
+    #[arg(long, value_parser = crate::args::coefficients)]
+    max_coeffs: Option<usize>,
     /// Samples with theta_d above this (degrees, in (0, 90]) are not fitted.
     #[arg(long, default_value_t = 78.0, value_parser = crate::args::angle_deg)]
     max_theta_d: f64,
@@ -65,10 +68,11 @@ pub struct FitArgs {
     #[arg(long, default_value_t = 6)]
     max_widenings: usize,
     /// Fit to a perceptual budget instead of fixed intervals: the smallest
-    /// 3-D perceptual fit (whole hemisphere; grid from `--resolution`, else
-    /// 24^3) whose validation renders (a sphere under three directional
-    /// lights and under a sky) reach this mean CIEDE2000 against the table.
-    /// MERL and RGL files only.
+    /// perceptual fit (whole hemisphere) whose validation renders (a sphere
+    /// under three directional lights and under a sky) reach this mean
+    /// CIEDE2000 against the table; the 2-D slice first, then 3-D (grid
+    /// from `--resolution`, else 24^3) unless `--dims` fixes one. MERL and
+    /// RGL files only.
     #[arg(long, conflicts_with_all = ["perceptual", "spread"], value_parser = crate::args::positive)]
     target_de: Option<f64>,
     /// Seconds `--target-de` may spend on fits and renders before it
@@ -110,7 +114,7 @@ pub fn load_material(path: &Path, format: &str) -> Result<Box<dyn Brdf>> {
 }
 
 fn reduction(args: &FitArgs) -> Result<Reduction> {
-    let kind = match (args.dims, args.spread) {
+    let kind = match (args.dims.unwrap_or(2), args.spread) {
         (2, false) => ReductionKind::Slice2d,
         (2, true) => ReductionKind::Spread2d,
         (3, false) => ReductionKind::Full3d,
@@ -144,7 +148,11 @@ fn reduction(args: &FitArgs) -> Result<Reduction> {
 /// Runs `ratfit fit`.
 pub fn run_fit(args: FitArgs) -> Result<()> {
     let mut fit_settings = FitSettings::default()
-        .with_coeff_range(2, args.max_coeffs)?
+        .with_coeff_range(
+            2,
+            args.max_coeffs
+                .unwrap_or(if args.target_de.is_some() { 120 } else { 60 }),
+        )?
         .with_backend(args.backend)?
         .with_pole_control(args.poles)
         .with_search(args.search.unwrap_or(if args.target_de.is_some() {
@@ -198,7 +206,7 @@ pub fn run_fit(args: FitArgs) -> Result<()> {
     Ok(())
 }
 
-/// `--target-de`: the smallest 3-D perceptual fit reaching a render error.
+/// `--target-de`: the smallest perceptual fit reaching a render error.
 fn run_fit_target(args: &FitArgs, fit_settings: FitSettings, target: f64) -> Result<()> {
     if !(target > 0.0 && target.is_finite()) {
         bail!("--target-de {target}: give a positive CIEDE2000 value");
@@ -212,11 +220,22 @@ fn run_fit_target(args: &FitArgs, fit_settings: FitSettings, target: f64) -> Res
     if args.format != "merl" && args.format != "rgl" {
         bail!("--target-de renders the table: use --format merl or rgl");
     }
+    // The 3-D grid (or, with `--dims 2`, the slice alone) over the whole
+    // hemisphere; in the automatic mode the slice is tried first.
+    let slice_only = args.dims == Some(2);
     let mut reduction = reduction(args)?
-        .with_kind(ReductionKind::Full3d)
+        .with_kind(if slice_only {
+            ReductionKind::Slice2d
+        } else {
+            ReductionKind::Full3d
+        })
         .whole_hemisphere();
     if args.resolution.is_none() {
-        reduction = reduction.with_resolution(24, 24).with_phi_resolution(24);
+        reduction = if slice_only {
+            reduction.with_resolution(90, 90)
+        } else {
+            reduction.with_resolution(24, 24).with_phi_resolution(24)
+        };
     }
     let settings = BrdfFitSettings::default()
         .with_reduction(reduction)
@@ -224,18 +243,24 @@ fn run_fit_target(args: &FitArgs, fit_settings: FitSettings, target: f64) -> Res
         .with_colour_mode(args.colour.unwrap_or(brdf::ColourMode::LuminanceChroma))
         .with_fit_settings(fit_settings);
     let material: std::sync::Arc<dyn Brdf> = load_material(&args.material, &args.format)?.into();
+    let mode = match args.dims {
+        None => render_cpu::fidelity::TargetReduction::Auto,
+        Some(_) => render_cpu::fidelity::TargetReduction::Fixed,
+    };
     let (fitted, target_report) = render_cpu::fidelity::fit_to_target(
         material,
         target,
         &settings,
+        mode,
         render_cpu::fidelity::ValidationSettings::default(),
         args.time_budget,
     )?;
     println!(
-        "{}: {} coefficients, {} bytes (f32), 3-D perceptual fit over the whole hemisphere",
+        "{}: {} coefficients, {} bytes (f32), {}-D perceptual fit over the whole hemisphere",
         fitted.name,
         fitted.coefficients(),
-        fitted.byte_size_f32()
+        fitted.byte_size_f32(),
+        fitted.reduction.dims()
     );
     println!("{target_report}");
     let out = serde_json::json!({ "brdf": fitted, "target": target_report });

@@ -238,8 +238,9 @@ impl IntervalData {
     /// about the geometric centre, so the relative error allowed grows but
     /// zero never enters (a relative interval widened linearly soon
     /// contains zero, and the zero function then "fits" every sample). An
-    /// interval that contains zero has its half-width multiplied about its
-    /// centre.
+    /// interval with zero at one end keeps it there and moves the other end
+    /// out by the factor (non-negative data stay non-negative); one with
+    /// zero inside has its half-width multiplied about its centre.
     pub fn widened(&self, factor: f64) -> Self {
         let mut out = self.clone();
         for i in 0..self.len() {
@@ -252,6 +253,11 @@ impl IntervalData {
                 let (x, y) = (sign * (c - h).exp(), sign * (c + h).exp());
                 out.lo[i] = x.min(y);
                 out.hi[i] = x.max(y);
+            } else if lo == 0.0 && hi > 0.0 {
+                // A bound of one sign with zero inside stays of that sign.
+                out.hi[i] = hi * factor;
+            } else if hi == 0.0 && lo < 0.0 {
+                out.lo[i] = lo * factor;
             } else {
                 let c = 0.5 * (lo + hi);
                 let h = 0.5 * (hi - lo) * factor;

@@ -69,12 +69,12 @@ fn widening_recovers_a_fit_and_says_so() {
 
 #[test]
 fn widening_keeps_intervals_of_one_sign_away_from_zero() {
-    let x = line(4);
+    let x = line(5);
     let d = IntervalData::new(
         1,
         x,
-        vec![0.95, -1.05, -1.0, 2.0],
-        vec![1.05, -0.95, 1.0, 2.0],
+        vec![0.95, -1.05, -1.0, 2.0, 0.0],
+        vec![1.05, -0.95, 1.0, 2.0, 3.0],
     )
     .unwrap();
     let w = d.widened(8.0);
@@ -94,6 +94,8 @@ fn widening_keeps_intervals_of_one_sign_away_from_zero() {
     // Across zero: the half-width about the centre; a point stays a point.
     assert_eq!((w.lo()[2], w.hi()[2]), (-8.0, 8.0));
     assert_eq!((w.lo()[3], w.hi()[3]), (2.0, 2.0));
+    // Zero at one end stays there: non-negative data stay non-negative.
+    assert_eq!((w.lo()[4], w.hi()[4]), (0.0, 24.0));
 }
 
 #[test]

@@ -254,9 +254,10 @@ impl MaterialBuilder<'_> {
     }
 }
 
-/// A scene's `target_de` fit: 3-D, luminance-chroma, a 16^3 grid over the
-/// whole hemisphere, validated at 64 x 64 pixels within 60 s; returns the
-/// fit and what it reached.
+/// A scene's `target_de` fit: luminance-chroma over the whole hemisphere,
+/// the 2-D slice first and a 16^3 grid when the slice cannot reach the
+/// target, validated at 64 x 64 pixels within 60 s; returns the fit and
+/// what it reached.
 fn fit_for_target(
     src: &Arc<dyn Brdf>,
     target: f64,
@@ -281,8 +282,14 @@ fn fit_for_target(
         sky_spp: 32,
         ..Default::default()
     };
-    let (fitted, report) =
-        crate::fidelity::fit_to_target(src.clone(), target, &settings, validation, 60.0)?;
+    let (fitted, report) = crate::fidelity::fit_to_target(
+        src.clone(),
+        target,
+        &settings,
+        crate::fidelity::TargetReduction::Auto,
+        validation,
+        60.0,
+    )?;
     let summary = format!(
         "target CIEDE2000 {}: {}",
         report.target_de,
