@@ -112,12 +112,17 @@ impl ScatteredBrdf {
             let v = numbers(t).ok_or_else(|| bad(format!("line {}: not numbers", no + 1)))?;
             match expect {
                 "count" => {
-                    count = Some(
-                        v.first()
-                            .copied()
-                            .ok_or_else(|| bad("empty wavelength count".into()))?
-                            as usize,
-                    );
+                    let n = v
+                        .first()
+                        .copied()
+                        .ok_or_else(|| bad("empty wavelength count".into()))?;
+                    if v.len() != 1 || n.fract() != 0.0 || !(1.0..=10_000.0).contains(&n) {
+                        return Err(bad(format!(
+                            "line {}: wavelength count `{t}` is not one whole number in 1..=10000",
+                            no + 1
+                        )));
+                    }
+                    count = Some(n as usize);
                     expect = "";
                 }
                 "wls" if count.is_some_and(|n| wavelengths.len() < n) => {
@@ -130,6 +135,15 @@ impl ScatteredBrdf {
                         return Err(bad(format!(
                             "{} wavelengths listed, header says {n}",
                             wavelengths.len()
+                        )));
+                    }
+                    if let Some(w) = wavelengths
+                        .windows(2)
+                        .find(|w| !(w[0].is_finite() && w[1] > w[0]))
+                    {
+                        return Err(bad(format!(
+                            "wavelengths must increase: {} then {}",
+                            w[0], w[1]
                         )));
                     }
                     if v.len() != 4 + n {
@@ -239,7 +253,17 @@ impl AltaData {
                         }
                         dim = Some((v[0], v[1]));
                     }
-                    Some("VS") => vs = it.next().and_then(|x| x.parse().ok()).unwrap_or(0),
+                    Some("VS") => {
+                        vs = match (it.next().map(str::parse::<u8>), it.next()) {
+                            (Some(Ok(k @ (0 | 2))), None) => usize::from(k),
+                            _ => {
+                                return Err(bad(format!(
+                                    "line {}: `#{h}`: `#VS` takes 0 or 2 (no interval, or lower and upper bounds)",
+                                    no + 1
+                                )))
+                            }
+                        }
+                    }
                     Some("PARAM_IN") => param_in = it.collect::<Vec<_>>().join(" "),
                     Some("PARAM_OUT") => param_out = it.collect::<Vec<_>>().join(" "),
                     _ => {}
@@ -265,7 +289,18 @@ impl AltaData {
             for k in 0..m {
                 row.push(v[n + k * per_out]);
                 if vs == 2 {
-                    iv.push((v[n + k * per_out + 1], v[n + k * per_out + 2]));
+                    let (value, lo, hi) = (
+                        v[n + k * per_out],
+                        v[n + k * per_out + 1],
+                        v[n + k * per_out + 2],
+                    );
+                    if !(lo <= value && value <= hi) {
+                        return Err(bad(format!(
+                            "line {}: output {k} value {value} is outside its own interval [{lo}, {hi}]",
+                            no + 1
+                        )));
+                    }
+                    iv.push((lo, hi));
                 }
             }
             rows.push(row);

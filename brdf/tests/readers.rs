@@ -371,3 +371,46 @@ fn rgl_axes_are_checked_and_corrupt_names_are_quoted_short() {
     assert!(e.contains("element type 99"), "{e}");
     assert!(e.len() < 400, "{} bytes: {e}", e.len());
 }
+
+#[test]
+fn cornell_headers_are_checked() {
+    let dir = scratch("cornell-headers");
+    let body = "0.1 0.0 0.2 3.1 0.5 0.6 0.7\n";
+    for (header, says) in [
+        ("# num wls\n31.9\n# wls\n400 500 600\n", "whole number"),
+        ("# num wls\n3\n# wls\n400 400 600\n", "must increase"),
+        ("# num wls\n3\n# wls\n600 500 400\n", "must increase"),
+    ] {
+        let p = dir.join("bad.brdf");
+        std::fs::write(&p, format!("{header}{body}")).unwrap();
+        let e = brdf::ScatteredBrdf::read_cornell(&p)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains(says), "{header}: {e}");
+    }
+    let p = dir.join("good.brdf");
+    std::fs::write(&p, format!("# num wls\n3\n# wls\n400 500 600\n{body}")).unwrap();
+    assert!(brdf::ScatteredBrdf::read_cornell(&p).is_ok());
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn alta_vertical_segments_are_checked() {
+    let dir = scratch("alta-vs");
+    let p = dir.join("bad.alta");
+    for (text, says) in [
+        (
+            "#DIM 1 1\n#VS 2\n0.5 1.0 1.2 1.5\n",
+            "outside its own interval",
+        ),
+        ("#DIM 1 1\n#VS two\n0.5 1.0\n", "#VS"),
+        ("#DIM 1 1\n#VS 3\n0.5 1.0\n", "#VS"),
+    ] {
+        std::fs::write(&p, text).unwrap();
+        let e = brdf::AltaData::read(&p).unwrap_err().to_string();
+        assert!(e.contains(says), "{text}: {e}");
+    }
+    std::fs::write(&p, "#DIM 1 1\n#VS 2\n0.5 1.0 0.9 1.1\n").unwrap();
+    assert!(brdf::AltaData::read(&p).is_ok());
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -12,6 +12,9 @@ pub fn read_numeric(path: &Path) -> Result<Vec<Vec<f64>>> {
 
 /// As [`read_numeric`] on text.
 pub fn parse_numeric(text: &str) -> Result<Vec<Vec<f64>>> {
+    // A UTF-8 byte-order mark would make the first data row unparseable,
+    // and so silently a "header".
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let mut rows = Vec::new();
     let mut width = None;
     for (lineno, line) in text.lines().enumerate() {
@@ -65,6 +68,12 @@ pub fn parse_numeric(text: &str) -> Result<Vec<Vec<f64>>> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_byte_order_mark_is_not_a_header() {
+        let rows = parse_numeric("\u{feff}0.5,1\n1,2\n").unwrap();
+        assert_eq!(rows, vec![vec![0.5, 1.0], vec![1.0, 2.0]]);
+    }
 
     #[test]
     fn header_and_errors() {

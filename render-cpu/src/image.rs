@@ -111,6 +111,21 @@ impl Image {
                 "expected a linear OpenEXR (.exr) image; PNG files are tone-mapped and cannot be compared",
             ));
         }
+        // The header first: a declared size is checked before anything of
+        // that size is allocated.
+        let meta = exr::meta::MetaData::read_from_file(path, false)
+            .map_err(|e| image_error(path, e.to_string()))?;
+        for h in &meta.headers {
+            let (w, h) = (h.layer_size.0, h.layer_size.1);
+            if w > MAX_IMAGE_SIDE || h > MAX_IMAGE_SIDE {
+                return Err(image_error(
+                    path,
+                    format!(
+                        "declares {w} x {h} pixels; at most {MAX_IMAGE_SIDE} per side are read"
+                    ),
+                ));
+            }
+        }
         let img = exr::prelude::read_first_rgba_layer_from_file(
             path,
             |size, _| Image::new(size.0, size.1, vec![[0.0; 3]; size.0 * size.1]),
@@ -209,6 +224,9 @@ pub fn encode_png(width: usize, height: usize, rgb: &[u8]) -> Vec<u8> {
     out
 }
 
+/// Largest width or height of an image read from a file (as of a render).
+pub const MAX_IMAGE_SIDE: usize = 16_384;
+
 /// Writes 8-bit RGB as PNG (atomically, see [`write_atomic`]).
 ///
 /// # Errors
@@ -245,6 +263,29 @@ pub fn write_atomic(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn an_exr_header_declaring_a_huge_image_is_refused_before_reading() {
+        let dir = std::env::temp_dir().join(format!("ratfit-huge-exr-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("huge.exr");
+        Image::new(4, 4, vec![[0.5; 3]; 16])
+            .write_exr(&path)
+            .unwrap();
+        let mut bytes = std::fs::read(&path).unwrap();
+        // dataWindow: name, type "box2i", size 16, then xmin ymin xmax ymax.
+        let key = b"dataWindow\0box2i\0";
+        let at = bytes.windows(key.len()).position(|w| w == key).unwrap() + key.len() + 4;
+        bytes[at + 8..at + 12].copy_from_slice(&99_999i32.to_le_bytes());
+        bytes[at + 12..at + 16].copy_from_slice(&99_999i32.to_le_bytes());
+        std::fs::write(&path, &bytes).unwrap();
+        let e = Image::read_exr(&path).unwrap_err().to_string();
+        assert!(
+            e.contains("huge.exr") && e.contains("100000 x 100000"),
+            "{e}"
+        );
+        std::fs::remove_dir_all(&dir).ok();
+    }
 
     #[test]
     fn atomic_writes_leave_the_old_file_or_the_new_one() {
