@@ -298,6 +298,20 @@ pub struct CompareArgs {
 pub fn run_compare(args: CompareArgs) -> Result<()> {
     let a = Image::read_exr(&args.a)?;
     let b = Image::read_exr(&args.b)?;
+    for (path, image) in [(&args.a, &a), (&args.b, &b)] {
+        if let Some(i) = image.pixels.iter().position(|p| p.iter().any(|&v| v < 0.0)) {
+            bail!(
+                "{}: pixel ({}, {}) is {:?}; radiance cannot be negative",
+                path.display(),
+                i % image.width,
+                i / image.width,
+                image.pixels[i]
+            );
+        }
+    }
+    if !(args.exposure.is_finite() && args.exposure > 0.0) {
+        bail!("--exposure {} must be positive", args.exposure);
+    }
     let (c, map) = compare(&a, &b, args.exposure)?;
     if args.json {
         println!("{}", serde_json::to_string_pretty(&c)?);
