@@ -29,7 +29,7 @@ pub struct PaperArgs {
     quick: bool,
 }
 
-/// The real materials whose 2-D fits at 20% are feasible (see the README).
+/// The real materials whose 2-D fits at 20% are feasible (see docs/guide/measured-brdfs.md).
 const MATERIALS: [&str; 4] = [
     "aurora_white",
     "cm_military_green",
