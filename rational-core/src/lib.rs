@@ -28,6 +28,11 @@
 //! # Ok::<(), rational_core::FitError>(())
 //! ```
 
+/// The README's Rust example, compiled and run as a doctest.
+#[cfg(doctest)]
+#[doc = include_str!("../../README.md")]
+pub struct ReadmeExample;
+
 mod basis;
 mod data;
 mod error;
