@@ -33,6 +33,9 @@ pub struct AltaRational {
     pub channels: Vec<AltaChannel>,
 }
 
+/// Largest Chebyshev degree read from a file (each term costs its degree).
+const MAX_ALTA_DEGREE: u32 = 1000;
+
 fn chebyshev(k: u32, t: f64) -> f64 {
     let (mut a, mut b) = (1.0, t);
     if k == 0 {
@@ -284,6 +287,39 @@ impl AltaRational {
             return Err(bad(format!("`#MIN`/`#MAX` need {d} values")));
         }
         flush(&min, &max, p, &mut coeffs);
+        if !(1..=rational_core::MAX_DIMENSION).contains(&d) {
+            return Err(bad(format!(
+                "`#DIM` {d} is outside 1..={}",
+                rational_core::MAX_DIMENSION
+            )));
+        }
+        for (k, c) in channels.iter().enumerate() {
+            if c.min.len() != d || c.max.len() != d {
+                return Err(bad(format!("channel {k}: `#MIN`/`#MAX` need {d} values")));
+            }
+            if let Some(j) = (0..d).find(|&j| !(c.min[j].is_finite() && c.max[j] >= c.min[j])) {
+                return Err(bad(format!(
+                    "channel {k}: coordinate {j} has the range [{}, {}]",
+                    c.min[j], c.max[j]
+                )));
+            }
+            if c.numerator.is_empty() || c.denominator.is_empty() {
+                return Err(bad(format!(
+                    "channel {k}: an empty numerator or denominator"
+                )));
+            }
+            let too_high = c
+                .numerator
+                .iter()
+                .chain(&c.denominator)
+                .flat_map(|(i, _)| i.iter())
+                .find(|&&deg| deg > MAX_ALTA_DEGREE);
+            if let Some(deg) = too_high {
+                return Err(bad(format!(
+                    "channel {k}: degree {deg} is above {MAX_ALTA_DEGREE}"
+                )));
+            }
+        }
         Ok(Self {
             dim_in: d,
             param_in,
