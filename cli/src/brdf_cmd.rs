@@ -99,6 +99,11 @@ pub struct FitArgs {
     /// Print the report as JSON.
     #[arg(long)]
     json: bool,
+    /// Skip the render check: by default a fit of a MERL or RGL table is
+    /// rendered beside the table on the two validation scenes (64 x 64
+    /// pixels, a few seconds) and the report states the CIEDE2000 reached.
+    #[arg(long)]
+    no_render_check: bool,
     /// Output fit (JSON).
     #[arg(short = 'o', long = "output")]
     output: PathBuf,
@@ -187,23 +192,62 @@ pub fn run_fit(args: FitArgs) -> Result<()> {
             .with_reduction(whole)
             .with_design(brdf::PerceptualBounds::default().with_rel_tol(args.rel_tol)?);
     }
-    let (fitted, report) = if args.format == "cornell" {
+    let (fitted, report, render) = if args.format == "cornell" {
         let data = ScatteredBrdf::read_cornell(&args.material)?;
         let samples = data.samples(settings.reduction());
-        fit_samples(&samples, &format!("Cornell {}", data.name), &settings)?
+        let (f, r) = fit_samples(&samples, &format!("Cornell {}", data.name), &settings)?;
+        (f, r, None)
     } else {
-        let material = load_material(&args.material, &args.format)?;
-        fit_brdf(material.as_ref(), &settings)?
+        let material: std::sync::Arc<dyn Brdf> =
+            load_material(&args.material, &args.format)?.into();
+        let (f, r) = fit_brdf(material.as_ref(), &settings)?;
+        let render = if args.no_render_check {
+            None
+        } else {
+            Some(render_check(material, &f)?)
+        };
+        (f, r, render)
     };
     if args.json {
         println!("{}", serde_json::to_string_pretty(&report)?);
     } else {
         println!("{report}");
+        if let Some(r) = &render {
+            println!("{}", describe_render(r));
+        }
     }
-    let out = serde_json::json!({ "brdf": fitted, "report": report });
+    let out = serde_json::json!({ "brdf": fitted, "report": report, "render": render });
     crate::output::write(&args.output, serde_json::to_string_pretty(&out)?)?;
     eprintln!("wrote {}", args.output.display());
     Ok(())
+}
+
+/// What a user judges: the fit's renders against the table's on the two
+/// validation scenes of `ratfit bench fidelity`, small and quick (64 x 64
+/// pixels, 64 sky samples).
+fn render_check(
+    table: std::sync::Arc<dyn Brdf>,
+    fitted: &FittedBrdf,
+) -> Result<render_cpu::fidelity::RenderErrors> {
+    let validation = render_cpu::fidelity::ValidationSettings {
+        size: 64,
+        sky_spp: 64,
+        ..Default::default()
+    };
+    let validator = render_cpu::fidelity::Validator::new(table, validation)?;
+    let mut errors = validator.measure(std::sync::Arc::new(render_cpu::FitInDomain::new(
+        fitted.clone(),
+    )))?;
+    errors.images.clear();
+    Ok(errors)
+}
+
+fn describe_render(r: &render_cpu::fidelity::RenderErrors) -> String {
+    format!(
+        "render error against the table (mean CIEDE2000, 64 x 64; --no-render-check skips): \
+         lights {:.2} (p99 {:.1}), sky {:.2} (p99 {:.1})",
+        r.scenes[0].mean_de, r.scenes[0].p99_de, r.scenes[1].mean_de, r.scenes[1].p99_de
+    )
 }
 
 /// `--target-de`: the smallest perceptual fit reaching a render error.

@@ -138,7 +138,7 @@ pub fn read_cdf(path: &Path) -> Result<CdfFile> {
     // Deserialisation checks the inverse CDFs and the table settings.
     serde_json::from_str(&text).with_context(|| {
         format!(
-            "{} is not a valid file written by `ratfit cdf`",
+            "{} is not written by `ratfit cdf`, or fails its checks",
             path.display()
         )
     })
