@@ -103,6 +103,9 @@ pub struct SceneError {
     pub mean_de: f64,
     /// 99th percentile of CIEDE2000 over the same pixels.
     pub p99_de: f64,
+    /// Pixels of the candidate's render that are not finite (a pole of a
+    /// fit, say); they count as white, far from any measured colour.
+    pub non_finite_pixels: usize,
 }
 
 /// A candidate's render errors, lights first.
@@ -136,6 +139,33 @@ pub struct Validator {
 }
 
 fn scene_error(a: &Image, b: &Image) -> Result<SceneError, RenderError> {
+    // A non-finite pixel would make every mean NaN: it is counted, and
+    // compared as a bright white (as a display would clip it).
+    let non_finite_pixels = b
+        .pixels
+        .iter()
+        .filter(|p| p.iter().any(|v| !v.is_finite()))
+        .count();
+    let sanitised;
+    let b = if non_finite_pixels > 0 {
+        sanitised = Image::new(
+            b.width,
+            b.height,
+            b.pixels
+                .iter()
+                .map(|p| {
+                    if p.iter().all(|v| v.is_finite()) {
+                        *p
+                    } else {
+                        [1e3; 3]
+                    }
+                })
+                .collect(),
+        );
+        &sanitised
+    } else {
+        b
+    };
     // Over the object's pixels: covered means non-black in either image.
     let (cmp, map) = compare(a, b, 1.0)?;
     let mut covered: Vec<f64> = map
@@ -152,6 +182,7 @@ fn scene_error(a: &Image, b: &Image) -> Result<SceneError, RenderError> {
     Ok(SceneError {
         mean_de: cmp.covered_mean_de2000,
         p99_de: p99,
+        non_finite_pixels,
     })
 }
 
@@ -598,4 +629,22 @@ pub fn fit_to_target(
         seconds: start.elapsed().as_secs_f64(),
     };
     Ok((fitted, report))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn non_finite_pixels_are_counted_and_do_not_poison_the_mean() {
+        let a = Image::new(2, 2, vec![[0.5; 3]; 4]);
+        let mut pixels = vec![[0.5; 3]; 4];
+        pixels[1] = [f32::INFINITY, 0.5, 0.5];
+        pixels[2] = [f32::NAN; 3];
+        let e = scene_error(&a, &Image::new(2, 2, pixels)).unwrap();
+        assert_eq!(e.non_finite_pixels, 2);
+        assert!(e.mean_de.is_finite() && e.mean_de > 10.0, "{e:?}");
+        let same = scene_error(&a, &a).unwrap();
+        assert_eq!((same.non_finite_pixels, same.mean_de), (0, 0.0));
+    }
 }

@@ -297,6 +297,12 @@ fn measure(judge: &Judge, c: Candidate) -> Result<Row> {
         (judge.material, judge.table, judge.validator, judge.plan);
     let render = validator.measure(candidate.clone())?;
     let hemisphere = hemisphere_errors(table, candidate.as_ref(), &plan.hemisphere);
+    let non_finite: usize = render.scenes.iter().map(|s| s.non_finite_pixels).sum();
+    let note = if non_finite > 0 {
+        format!("{note}; {non_finite} non-finite pixels (counted as white)")
+    } else {
+        note
+    };
     let row = Row {
         material: material.to_string(),
         representation: name,
