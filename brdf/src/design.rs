@@ -232,6 +232,11 @@ pub struct ChannelBounds {
     pub floor_cells: usize,
     /// Cells whose half-width is the noise.
     pub noise_cells: usize,
+    /// Points between the cells where a fit exceeded the cap and that were
+    /// added as `[0, cap]` constraints before fitting again
+    /// (`brdf::fitting`'s dense check).
+    #[serde(default)]
+    pub cap_points: usize,
 }
 
 impl Samples {
@@ -286,6 +291,7 @@ impl Samples {
             perceptual_cells: 0,
             floor_cells: 0,
             noise_cells: 0,
+            cap_points: 0,
         };
         let (mut lo, mut hi, mut values) = (
             Vec::with_capacity(used.len()),

@@ -6,7 +6,7 @@ use crate::design::{ChannelBounds, PerceptualBounds};
 use crate::geometry::{HalfDiff, Vec3};
 use crate::reduce::{Reduction, Samples};
 use crate::{Brdf, BrdfError};
-use rational_core::{fit, FitSettings, RationalFunction};
+use rational_core::{fit, FitSettings, IntervalData, RationalFunction};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::fmt;
@@ -541,6 +541,73 @@ pub fn fit_samples(
     Ok((fitted, report))
 }
 
+/// Rounds of the dense cap check of perceptual fits.
+const CAP_ROUNDS: usize = 2;
+
+/// Most points one round of the cap check adds (the largest excesses).
+const CAP_POINTS_PER_ROUND: usize = 400;
+
+/// Points of a grid over the data's bounding box, twice as dense as the
+/// data along each coordinate (at most 64 per coordinate, offset by half a
+/// step from the box's corners), where `f` exceeds `cap` by more than 1%:
+/// the largest [`CAP_POINTS_PER_ROUND`] excesses, flattened; `None` when
+/// there is none.
+fn points_above_cap(data: &IntervalData, f: &RationalFunction, cap: f64) -> Option<Vec<f64>> {
+    let dim = data.dim();
+    let bbox = data.bounding_box();
+    // Distinct coordinate values per axis give the data's resolution.
+    let per_axis: Vec<usize> = (0..dim)
+        .map(|k| {
+            let mut v: Vec<f64> = data.points().chunks_exact(dim).map(|p| p[k]).collect();
+            v.sort_by(f64::total_cmp);
+            v.dedup();
+            (2 * v.len()).clamp(4, 64)
+        })
+        .collect();
+    let total: usize = per_axis.iter().product();
+    let mut found: Vec<(f64, Vec<f64>)> = Vec::new();
+    let mut x = vec![0.0; dim];
+    for idx in 0..total {
+        let mut rest = idx;
+        for k in 0..dim {
+            let n = per_axis[k];
+            let i = rest % n;
+            rest /= n;
+            let t = (i as f64 + 0.5) / n as f64;
+            x[k] = bbox.lower[k] + t * (bbox.upper[k] - bbox.lower[k]);
+        }
+        let v = f.eval(&x);
+        if !(v <= 1.01 * cap) {
+            found.push((if v.is_finite() { v } else { f64::MAX }, x.clone()));
+        }
+    }
+    if found.is_empty() {
+        return None;
+    }
+    found.sort_by(|a, b| b.0.total_cmp(&a.0));
+    found.truncate(CAP_POINTS_PER_ROUND);
+    Some(found.into_iter().flat_map(|(_, p)| p).collect())
+}
+
+/// `data` with `points` added as `[0, cap]` constraints.
+fn with_cap_points(
+    data: &IntervalData,
+    points: Vec<f64>,
+    cap: f64,
+) -> Result<IntervalData, rational_core::FitError> {
+    let dim = data.dim();
+    let n = points.len() / dim;
+    let mut all = data.points().to_vec();
+    all.extend(points);
+    let mut lo = data.lo().to_vec();
+    let mut hi = data.hi().to_vec();
+    let mut values: Vec<f64> = (0..data.len()).map(|i| data.value(i)).collect();
+    lo.extend(std::iter::repeat_n(0.0, n));
+    hi.extend(std::iter::repeat_n(cap, n));
+    values.extend(std::iter::repeat_n(0.5 * cap, n));
+    IntervalData::new(dim, all, lo, hi)?.with_values(values)
+}
+
 fn fit_channel(
     samples: &Samples,
     c: usize,
@@ -560,7 +627,23 @@ fn fit_channel(
         }
     };
     let rel_tol = s.design.map_or(s.rel_tol, |d| d.rel_tol);
-    let report = fit(&data, &s.fit).map_err(|e| BrdfError::Fit { channel, source: e })?;
+    let mut report = fit(&data, &s.fit).map_err(|e| BrdfError::Fit { channel, source: e })?;
+    let mut bounds = bounds;
+    if let (Some(design), Some(b)) = (&s.design, bounds.as_mut()) {
+        // Between the cells nothing bounds p / q: check a grid twice as
+        // dense, add the points above the cap as [0, cap] and fit again.
+        let cap = design.peak_cap * b.peak;
+        let mut augmented = data.clone();
+        for _ in 0..CAP_ROUNDS {
+            let Some(more) = points_above_cap(&augmented, &report.function, cap) else {
+                break;
+            };
+            b.cap_points += more.len() / augmented.dim();
+            augmented = with_cap_points(&augmented, more, cap)
+                .map_err(|e| BrdfError::Fit { channel, source: e })?;
+            report = fit(&augmented, &s.fit).map_err(|e| BrdfError::Fit { channel, source: e })?;
+        }
+    }
     let f = report.function.clone();
     let (mut wsum, mut wsq) = (0.0_f64, 0.0_f64);
     // Relative errors over the samples whose interval is relative (above the

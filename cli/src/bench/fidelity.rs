@@ -542,9 +542,14 @@ fn measure_material(judge: &Judge) -> Result<Vec<Row>> {
         .chain([1024])
         .collect();
     budgets.sort_unstable();
-    budgets.dedup();
-    for bytes in budgets {
-        let bins = DownsampledTable::bins_for_bytes(bytes);
+    // Two budgets may give the same grid: measure each grid once.
+    let mut grids: Vec<[usize; 3]> = budgets
+        .into_iter()
+        .map(DownsampledTable::bins_for_bytes)
+        .collect();
+    grids.sort_by_key(|b| (b[0] * b[1] * b[2], *b));
+    grids.dedup();
+    for bins in grids {
         let t1 = Instant::now();
         let down = DownsampledTable::new(judge.table, bins);
         let size = down.byte_size_f32();
