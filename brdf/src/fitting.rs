@@ -577,7 +577,7 @@ fn points_above_cap(data: &IntervalData, f: &RationalFunction, cap: f64) -> Opti
             x[k] = bbox.lower[k] + t * (bbox.upper[k] - bbox.lower[k]);
         }
         let v = f.eval(&x);
-        if !(v <= 1.01 * cap) {
+        if v.is_nan() || v > 1.01 * cap {
             found.push((if v.is_finite() { v } else { f64::MAX }, x.clone()));
         }
     }
