@@ -582,9 +582,9 @@ fn write_outputs(
         let b = &r.hemisphere.bands;
         let _ = writeln!(
             csv,
-            "{},{},{},{:.3},{:.4},{:.4},{:.4},{:.4},{:.4e},{:.4e},{:.4e},{:.4e},{:.4e},{:.4e},{:.4e},{:.4e},{:.4e},{:.4e},{:.4},\"{}\"",
+            "{},\"{}\",{},{:.3},{:.4},{:.4},{:.4},{:.4},{:.4e},{:.4e},{:.4e},{:.4e},{:.4e},{:.4e},{:.4e},{:.4e},{:.4e},{:.4e},{:.4},\"{}\"",
             r.material,
-            r.representation,
+            r.representation.replace('"', "'"),
             r.bytes,
             r.fit_s,
             r.render.scenes[0].mean_de,
@@ -737,6 +737,29 @@ fn check(out: &Path, rows: &[Row], noise: &[(String, Vec<f64>)]) -> Vec<String> 
                     lines - 1,
                     rows.len()
                 ));
+            }
+            // Every row has the header's columns (commas inside quotes
+            // do not separate).
+            let columns = |line: &str| {
+                let mut quoted = false;
+                1 + line
+                    .chars()
+                    .filter(|&c| {
+                        if c == '"' {
+                            quoted = !quoted;
+                        }
+                        c == ',' && !quoted
+                    })
+                    .count()
+            };
+            let expected = columns(HEADER);
+            for (k, line) in text.lines().enumerate().skip(1) {
+                if columns(line) != expected {
+                    problems.push(format!(
+                        "results.csv row {k} has {} columns, expected {expected}",
+                        columns(line)
+                    ));
+                }
             }
         }
         Err(e) => problems.push(format!("results.csv: {e}")),
