@@ -1,7 +1,6 @@
 //! Minimal writer of NumPy `.npy` files (format 1.0, little-endian f64).
 
-use anyhow::{Context, Result};
-use std::io::Write;
+use anyhow::Result;
 use std::path::Path;
 
 /// Writes a C-ordered f64 array of the given shape.
@@ -29,9 +28,7 @@ pub fn write_f64(path: &Path, shape: &[usize], data: &[f64]) -> Result<()> {
     for v in data {
         out.extend_from_slice(&v.to_le_bytes());
     }
-    std::fs::File::create(path)
-        .and_then(|mut f| f.write_all(&out))
-        .with_context(|| format!("cannot write {}", path.display()))
+    crate::output::write(path, out)
 }
 
 #[cfg(test)]
