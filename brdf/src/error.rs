@@ -1,6 +1,6 @@
 //! The crate's error type.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// Errors reading, writing or fitting reflectance data.
 #[derive(Debug, thiserror::Error)]
@@ -70,4 +70,28 @@ pub(crate) fn read_named(path: &std::path::Path) -> Result<(Vec<u8>, String), Br
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_default();
     Ok((bytes, name))
+}
+
+/// Writes `path` by `write` into a temporary file beside it, then renames
+/// it into place: a failed or interrupted command never leaves a truncated
+/// output, and a reader never sees a half-written file.
+///
+/// # Errors
+/// Whatever `write` or the rename returns (the temporary file is removed).
+pub fn write_atomic(
+    path: &Path,
+    write: impl FnOnce(&Path) -> std::io::Result<()>,
+) -> std::io::Result<()> {
+    let name = path
+        .file_name()
+        .ok_or_else(|| std::io::Error::new(std::io::ErrorKind::InvalidInput, "no file name"))?;
+    let mut tmp_name = std::ffi::OsString::from(".");
+    tmp_name.push(name);
+    tmp_name.push(format!(".partial-{}", std::process::id()));
+    let tmp = path.with_file_name(tmp_name);
+    let result = write(&tmp).and_then(|()| std::fs::rename(&tmp, path));
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result
 }

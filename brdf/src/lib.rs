@@ -46,7 +46,7 @@ pub use colour::{luminance, ColourMode, LUMINANCE_WEIGHTS};
 pub use compact::{CompactBrdf, CompactChannel};
 pub use design::{estimate_noise, ChannelBounds, NoiseEstimate, PerceptualBounds};
 pub use downsample::DownsampledTable;
-pub use error::BrdfError;
+pub use error::{write_atomic, BrdfError};
 pub use fitting::{
     fit_brdf, fit_samples, BrdfFitReport, BrdfFitSettings, ChannelReport, FittedBrdf,
 };

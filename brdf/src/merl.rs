@@ -203,21 +203,14 @@ impl MerlBrdf {
         out
     }
 
-    /// Writes a MERL binary file, through a temporary file beside it and a
-    /// rename (an interrupted write leaves no truncated table).
+    /// Writes a MERL binary file atomically ([`crate::write_atomic`]).
     ///
     /// # Errors
     /// The file cannot be written.
     pub fn write(&self, path: &Path) -> Result<(), BrdfError> {
-        let mut tmp = path.as_os_str().to_owned();
-        tmp.push(format!(".partial-{}", std::process::id()));
-        let tmp = std::path::PathBuf::from(tmp);
-        let result =
-            std::fs::write(&tmp, self.to_bytes()).and_then(|()| std::fs::rename(&tmp, path));
-        if result.is_err() {
-            let _ = std::fs::remove_file(&tmp);
-        }
-        result.map_err(|e| BrdfError::io(path, e))
+        let bytes = self.to_bytes();
+        crate::write_atomic(path, |tmp| std::fs::write(tmp, &bytes))
+            .map_err(|e| BrdfError::io(path, e))
     }
 
     /// Tabulates any BRDF at the cell centres, with optional noise and

@@ -137,10 +137,12 @@ impl ScatteredBrdf {
                             wavelengths.len()
                         )));
                     }
-                    if let Some(w) = wavelengths
-                        .windows(2)
-                        .find(|w| !(w[0].is_finite() && w[1] > w[0]))
-                    {
+                    // Checked once, at the first data row.
+                    if let Some(w) = samples.is_empty().then_some(()).and(
+                        wavelengths
+                            .windows(2)
+                            .find(|w| !(w[0].is_finite() && w[1] > w[0])),
+                    ) {
                         return Err(bad(format!(
                             "wavelengths must increase: {} then {}",
                             w[0], w[1]

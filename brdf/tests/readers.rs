@@ -4,14 +4,10 @@
 
 use brdf::merl::{self, MerlBrdf, TabulateOptions};
 use brdf::{from_spherical, BlinnPhong, Brdf, CookTorranceGgx, RglBrdf};
-use std::path::{Path, PathBuf};
+mod common;
 
-fn data_dir() -> Option<PathBuf> {
-    let dir = std::env::var_os("RATFIT_DATA")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/data"));
-    dir.is_dir().then_some(dir)
-}
+use common::{data_dir, tensor_field};
+use std::path::{Path, PathBuf};
 
 fn scratch(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("ratfit-brdf-{}-{name}", std::process::id()));
@@ -307,25 +303,6 @@ fn rgl_albedo_matches_the_independent_renderer_under_each_convention() {
     }
 }
 
-/// Byte offset and element width of field `name` in a tensor file.
-fn tensor_field(bytes: &[u8], name: &str) -> (usize, usize) {
-    let count = u32::from_le_bytes(bytes[14..18].try_into().unwrap()) as usize;
-    let mut pos = 18;
-    for _ in 0..count {
-        let len = u16::from_le_bytes([bytes[pos], bytes[pos + 1]]) as usize;
-        let field = &bytes[pos + 2..pos + 2 + len];
-        pos += 2 + len;
-        let ndim = u16::from_le_bytes([bytes[pos], bytes[pos + 1]]) as usize;
-        let dtype = bytes[pos + 2];
-        let offset = u64::from_le_bytes(bytes[pos + 3..pos + 11].try_into().unwrap()) as usize;
-        pos += 11 + 8 * ndim;
-        if field == name.as_bytes() {
-            return (offset, if dtype == 10 { 4 } else { 8 });
-        }
-    }
-    panic!("no field {name}");
-}
-
 #[test]
 fn rgl_axes_are_checked_and_corrupt_names_are_quoted_short() {
     let Some(dir) = data_dir() else {
@@ -334,7 +311,7 @@ fn rgl_axes_are_checked_and_corrupt_names_are_quoted_short() {
     };
     let path = dir.join("rgl/aurora_white_rgb.bsdf");
     let good = std::fs::read(&path).unwrap();
-    let (offset, width) = tensor_field(&good, "theta_i");
+    let (offset, width, _) = tensor_field(&good, "theta_i");
     let write = |bytes: &mut Vec<u8>, k: usize, v: f64| {
         let at = offset + k * width;
         if width == 4 {

@@ -2,6 +2,7 @@
 //! (exposure, then the sRGB transfer curve, clamped to 8 bits).
 
 use crate::error::RenderError;
+use brdf::write_atomic;
 use std::path::Path;
 
 /// A linear RGB image, row-major, top row first.
@@ -234,30 +235,6 @@ pub const MAX_IMAGE_SIDE: usize = 16_384;
 pub fn write_png(path: &Path, width: usize, height: usize, rgb: &[u8]) -> Result<(), RenderError> {
     let bytes = encode_png(width, height, rgb);
     write_atomic(path, |tmp| std::fs::write(tmp, &bytes)).map_err(|e| crate::error::io(path, e))
-}
-
-/// Writes `path` by `write` into a temporary file beside it, then renames
-/// it into place: a failed or interrupted command never leaves a truncated
-/// output, and a reader never sees a half-written file.
-///
-/// # Errors
-/// Whatever `write` or the rename returns (the temporary file is removed).
-pub fn write_atomic(
-    path: &Path,
-    write: impl FnOnce(&Path) -> std::io::Result<()>,
-) -> std::io::Result<()> {
-    let name = path
-        .file_name()
-        .ok_or_else(|| std::io::Error::new(std::io::ErrorKind::InvalidInput, "no file name"))?;
-    let mut tmp_name = std::ffi::OsString::from(".");
-    tmp_name.push(name);
-    tmp_name.push(format!(".partial-{}", std::process::id()));
-    let tmp = path.with_file_name(tmp_name);
-    let result = write(&tmp).and_then(|()| std::fs::rename(&tmp, path));
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    result
 }
 
 #[cfg(test)]

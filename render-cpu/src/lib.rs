@@ -60,11 +60,12 @@ mod prepare;
 pub mod scene;
 mod world;
 
+pub use brdf::write_atomic;
 pub use camera::Camera;
 pub use compare::{compare, false_colour, Comparison};
 pub use error::RenderError;
 pub use geometry::{Hit, Ray, Shape};
-pub use image::{encode_png, srgb_encode, write_atomic, write_png, Image};
+pub use image::{encode_png, srgb_encode, write_png, Image};
 pub use integrator::{radiance, render, RenderOutput, RenderStats};
 pub use light::{Environment, EnvironmentMap, Light};
 pub use math::{Frame, Rng};

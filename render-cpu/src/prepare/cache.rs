@@ -73,9 +73,7 @@ impl Cache {
         let doc = serde_json::json!({ "settings": settings, "payload": payload });
         let write = || -> std::io::Result<()> {
             std::fs::create_dir_all(path.parent().unwrap_or(Path::new(".")))?;
-            let tmp = path.with_extension("tmp");
-            std::fs::write(&tmp, doc.to_string())?;
-            std::fs::rename(&tmp, &path)
+            brdf::write_atomic(&path, |tmp| std::fs::write(tmp, doc.to_string()))
         };
         match write() {
             Ok(()) => format!("cached as {}", path.display()),
