@@ -95,6 +95,12 @@ impl AltaRational {
     /// `theta_h`, cosines: refit with radians) or in a basis other than
     /// Chebyshev.
     pub fn from_fitted(fit: &FittedBrdf) -> Result<Self, BrdfError> {
+        if fit.lobe.is_some() {
+            return Err(BrdfError::Invalid {
+                name: "ALTA export",
+                reason: "ALTA rational functions hold p / q alone; this fit multiplies them by an analytic lobe (export the binary, WGSL or GLSL form, or refit without --lobe)".into(),
+            });
+        }
         if !fit.mode.is_rgb() {
             return Err(BrdfError::Invalid {
                 name: "ALTA export",

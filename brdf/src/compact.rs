@@ -6,10 +6,17 @@
 use crate::colour::ColourMode;
 use crate::fitting::FittedBrdf;
 use crate::geometry::Vec3;
+use crate::lobe::LobeF32;
 use crate::reduce::{Coordinates, Reduction};
 use crate::BrdfError;
 use rational_core::BasisFamily;
 use std::f32::consts::PI;
+
+/// Largest coefficient magnitude a compact file may hold: far above any
+/// fit's (the engine normalises the coefficient vector), and far enough
+/// below `f32::MAX` that sums of up to 1e5 terms and the division by a
+/// denominator of order one stay finite.
+pub const MAX_COEFFICIENT: f32 = 1e30;
 
 /// One channel in f32: basis description and coefficients.
 #[derive(Debug, Clone, PartialEq)]
@@ -49,6 +56,8 @@ pub struct CompactBrdf {
     pub channels: Vec<CompactChannel>,
     /// What the three functions are.
     pub mode: ColourMode,
+    /// The analytic lobe each function multiplies, when there is one.
+    pub lobe: Option<LobeF32>,
 }
 
 /// Univariate values `phi_0..=phi_deg` at `t` in f32 (the shaders' recurrences).
@@ -198,6 +207,7 @@ impl CompactBrdf {
             max_elevation: f.reduction.max_elevation_deg.min(90.0).to_radians() as f32,
             channels,
             mode: f.mode,
+            lobe: f.lobe.map(|l| l.to_f32()),
         }
     }
 
@@ -228,8 +238,15 @@ impl CompactBrdf {
             (wi, wo)
         };
         let x = self.coordinates(wi, wo);
-        self.mode
-            .combine_f32([0, 1, 2].map(|c| self.channels[c].eval(&x[..self.dims])))
+        let v = [0, 1, 2].map(|c| self.channels[c].eval(&x[..self.dims]));
+        let v = match &self.lobe {
+            Some(lobe) => {
+                let f = lobe.factors(wi, wo, self.mode);
+                [v[0] * f[0], v[1] * f[1], v[2] * f[2]]
+            }
+            None => v,
+        };
+        self.mode.combine_f32(v)
     }
 
     /// Whether directions beyond an elevation cut are moved to it.
@@ -251,7 +268,8 @@ impl CompactBrdf {
     /// set), then every channel (family, `n_p`, `n_q`, one byte per
     /// coordinate's degree weight when flag bit 0 is set, domain and
     /// coefficients as f32). Unweighted RGB fits of the whole hemisphere
-    /// leave the flags 0; bit 1 marks the luminance-chroma mode.
+    /// leave the flags 0; bit 1 marks the luminance-chroma mode; bit 3 a
+    /// lobe, whose seven f32 (`kd / pi`, `f0`, `alpha`) follow the header.
     pub fn to_bytes(&self) -> Vec<u8> {
         let mut out = b"RFB1".to_vec();
         let coords = match self.coordinates {
@@ -266,11 +284,17 @@ impl CompactBrdf {
         let cut = self.has_elevation_cut();
         let flags = u8::from(weighted)
             | (u8::from(self.mode == ColourMode::LuminanceChroma) << 1)
-            | (u8::from(cut) << 2);
+            | (u8::from(cut) << 2)
+            | (u8::from(self.lobe.is_some()) << 3);
         out.extend_from_slice(&[coords, self.dims as u8, self.channels.len() as u8, flags]);
         out.extend_from_slice(&self.max_theta_d.to_le_bytes());
         if cut {
             out.extend_from_slice(&self.max_elevation.to_le_bytes());
+        }
+        if let Some(l) = &self.lobe {
+            for v in l.kd_over_pi.iter().chain(&l.f0).chain([&l.alpha]) {
+                out.extend_from_slice(&v.to_le_bytes());
+            }
         }
         for c in &self.channels {
             let fam = match c.family {
@@ -316,7 +340,7 @@ impl CompactBrdf {
         if nch != 3 {
             return Err(bad(&format!("{nch} channels (3 expected)")));
         }
-        if b[7] > 7 {
+        if b[7] > 15 {
             return Err(bad(&format!("unknown flags {:#04x}", b[7])));
         }
         let weighted = b[7] & 1 == 1;
@@ -341,6 +365,23 @@ impl CompactBrdf {
             (angle(12, "elevation cut")?, 16)
         } else {
             (PI / 2.0, 12)
+        };
+        let lobe = if b[7] & 8 == 8 {
+            let raw = b.get(pos..pos + 28).ok_or_else(|| bad("truncated lobe"))?;
+            pos += 28;
+            let v: Vec<f32> = raw
+                .chunks_exact(4)
+                .map(|c| f32::from_le_bytes(c.try_into().expect("4")))
+                .collect();
+            let lobe = LobeF32 {
+                kd_over_pi: [v[0], v[1], v[2]],
+                f0: [v[3], v[4], v[5]],
+                alpha: v[6],
+            };
+            lobe.validate().map_err(|e| bad(&format!("lobe: {e}")))?;
+            Some(lobe)
+        } else {
+            None
         };
         let mut channels = Vec::with_capacity(nch);
         for _ in 0..nch {
@@ -388,6 +429,11 @@ impl CompactBrdf {
             if v.iter().any(|x| !x.is_finite()) {
                 return Err(bad("a domain bound or coefficient is not finite"));
             }
+            if let Some(c) = v[2 * dims..].iter().find(|c| c.abs() > MAX_COEFFICIENT) {
+                return Err(bad(&format!(
+                    "coefficient {c:e} is beyond {MAX_COEFFICIENT:e} in magnitude (f32 sums of such terms overflow; no fit has them)"
+                )));
+            }
             if (0..dims).any(|k| v[k] >= v[dims + k]) {
                 return Err(bad("an empty domain (lower bound not below upper)"));
             }
@@ -408,6 +454,7 @@ impl CompactBrdf {
         }
         Ok(Self {
             mode,
+            lobe,
             coordinates,
             dims,
             max_theta_d,

@@ -4,6 +4,7 @@ use crate::baseline::BaselineReport;
 use crate::colour::ColourMode;
 use crate::design::{ChannelBounds, PerceptualBounds};
 use crate::geometry::{HalfDiff, Vec3};
+use crate::lobe::Lobe;
 use crate::reduce::{Reduction, Samples};
 use crate::{Brdf, BrdfError};
 use rational_core::{fit, FitSettings, IntervalData, RationalFunction};
@@ -22,6 +23,7 @@ pub struct BrdfFitSettings {
     baselines: bool,
     design: Option<PerceptualBounds>,
     mode: ColourMode,
+    lobe: Option<Lobe>,
 }
 
 impl Default for BrdfFitSettings {
@@ -36,6 +38,7 @@ impl Default for BrdfFitSettings {
             baselines: true,
             design: None,
             mode: ColourMode::Rgb,
+            lobe: None,
             fit: FitSettings::default()
                 .with_coeff_range(2, 60)
                 .expect("valid range"),
@@ -111,6 +114,19 @@ impl BrdfFitSettings {
         self
     }
 
+    /// Fit the ratio of the data to `lobe` instead of the data (the
+    /// lobe-times-rational representation; see [`Lobe`]): the intervals are
+    /// the same, divided by the lobe, so the bound on the product holds.
+    pub fn with_lobe(mut self, lobe: Option<Lobe>) -> Self {
+        self.lobe = lobe;
+        self
+    }
+
+    /// The analytic lobe the functions multiply, when in use.
+    pub fn lobe(&self) -> Option<&Lobe> {
+        self.lobe.as_ref()
+    }
+
     /// The colour mode.
     pub fn colour_mode(&self) -> ColourMode {
         self.mode
@@ -145,6 +161,10 @@ pub struct FittedBrdf {
     /// What the three functions are (RGB unless stated).
     #[serde(default, skip_serializing_if = "ColourMode::is_rgb")]
     pub mode: ColourMode,
+    /// The analytic lobe each function multiplies (the lobe-times-rational
+    /// representation), when there is one.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lobe: Option<Lobe>,
     /// Source material.
     pub name: String,
 }
@@ -156,6 +176,8 @@ struct FittedSpec {
     channels: Vec<RationalFunction>,
     #[serde(default)]
     mode: ColourMode,
+    #[serde(default)]
+    lobe: Option<Lobe>,
     name: String,
 }
 
@@ -166,6 +188,7 @@ impl TryFrom<FittedSpec> for FittedBrdf {
             reduction: s.reduction,
             channels: s.channels,
             mode: s.mode,
+            lobe: s.lobe,
             name: s.name,
         };
         f.validate()?;
@@ -222,9 +245,24 @@ impl FittedBrdf {
 
     /// Evaluates every channel in f64 and makes RGB by the colour mode;
     /// negative values (possible only between samples) are clamped to zero.
+    /// A fit with a lobe needs the directions: see [`Brdf::eval`].
     pub fn eval_coords(&self, x: &[f64]) -> [f64; 3] {
         self.mode
             .combine([0, 1, 2].map(|c| self.channels[c].eval(x)))
+    }
+
+    /// The functions' values at a direction pair above the surface (the
+    /// lobe's factors applied), before the colour mode makes RGB.
+    fn functions_at(&self, wi: Vec3, wo: Vec3) -> [f64; 3] {
+        let x = self.coordinates(wi, wo);
+        let v = [0, 1, 2].map(|c| self.channels[c].eval(&x));
+        match &self.lobe {
+            Some(lobe) => {
+                let f = lobe.factors(wi, wo, self.mode);
+                [0, 1, 2].map(|c| v[c] * f[c])
+            }
+            None => v,
+        }
     }
 
     /// Evaluates the fit at many direction pairs in parallel.
@@ -243,12 +281,14 @@ impl FittedBrdf {
             .sum()
     }
 
-    /// Bytes of all coefficients as f32.
+    /// Bytes of all coefficients as f32, and the lobe's seven parameters
+    /// when there is one.
     pub fn byte_size_f32(&self) -> usize {
         self.channels
             .iter()
             .map(RationalFunction::byte_size_f32)
-            .sum()
+            .sum::<usize>()
+            + if self.lobe.is_some() { 28 } else { 0 }
     }
 }
 
@@ -267,9 +307,9 @@ impl Brdf for FittedBrdf {
                 crate::geometry::clamp_elevation(wi, cos_cut, sin_cut),
                 crate::geometry::clamp_elevation(wo, cos_cut, sin_cut),
             );
-            return self.eval_coords(&self.coordinates(wi, wo));
+            return self.mode.combine(self.functions_at(wi, wo));
         }
-        self.eval_coords(&self.coordinates(wi, wo))
+        self.mode.combine(self.functions_at(wi, wo))
     }
 
     fn name(&self) -> String {
@@ -347,6 +387,9 @@ pub struct BrdfFitReport {
     /// Degree weights of the basis order (empty: the total-degree order).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub degree_weights: Vec<u16>,
+    /// The lobe the functions multiply, when in use.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lobe: Option<Lobe>,
     /// Per channel.
     pub channels: Vec<ChannelReport>,
     /// Total wall time, sampling included.
@@ -384,6 +427,13 @@ impl fmt::Display for BrdfFitReport {
                     )?;
                 }
             }
+        }
+        if let Some(l) = &self.lobe {
+            writeln!(
+                f,
+                "  lobe times rational: the functions fit the table divided by Cook-Torrance GGX (kd {:.4?}, f0 {:.4?}, alpha {:.4}); errors below are of the product",
+                l.kd, l.f0, l.alpha
+            )?;
         }
         if !self.degree_weights.is_empty() {
             let w: Vec<String> = self.degree_weights.iter().map(u16::to_string).collect();
@@ -496,6 +546,7 @@ pub fn fit_samples(
         reduction: settings.reduction,
         channels,
         mode: settings.mode,
+        lobe: settings.lobe,
         name: name.to_string(),
     };
     // Errors over every valid sample above the floor, grazing ones included.
@@ -514,7 +565,10 @@ pub fn fit_samples(
                 .map(th, td.min(r.max_theta_d_deg.to_radians()), pd, r.dims());
             // Each function against its own data (luminance or a ratio in
             // the luminance-chroma mode).
-            let e = (fitted.channels[c].eval(&x).max(0.0) / row.value[c] - 1.0).abs();
+            let lobe = settings
+                .lobe
+                .map_or(1.0, |l| l.factors_at(row.angles, settings.mode)[c]);
+            let e = ((fitted.channels[c].eval(&x) * lobe).max(0.0) / row.value[c] - 1.0).abs();
             max = max.max(e);
             sum += e;
             n += 1;
@@ -535,6 +589,7 @@ pub fn fit_samples(
             .filter(|b| b.is_weighted())
             .map(|b| b.weights().to_vec())
             .unwrap_or_default(),
+        lobe: settings.lobe,
         channels: reports,
         seconds: start.elapsed().as_secs_f64(),
     };
@@ -549,10 +604,14 @@ const CAP_POINTS_PER_ROUND: usize = 400;
 
 /// Points of a grid over the data's bounding box, twice as dense as the
 /// data along each coordinate (at most 64 per coordinate, offset by half a
-/// step from the box's corners), where `f` exceeds `cap` by more than 1%:
-/// the largest [`CAP_POINTS_PER_ROUND`] excesses, flattened; `None` when
-/// there is none.
-fn points_above_cap(data: &IntervalData, f: &RationalFunction, cap: f64) -> Option<Vec<f64>> {
+/// step from the box's corners), where `f` exceeds `cap_at` by more than 1%:
+/// the largest [`CAP_POINTS_PER_ROUND`] excesses (relative to the cap),
+/// each with its cap; `None` when there is none.
+fn points_above_cap(
+    data: &IntervalData,
+    f: &RationalFunction,
+    cap_at: &dyn Fn(&[f64]) -> f64,
+) -> Option<(Vec<f64>, Vec<f64>)> {
     let dim = data.dim();
     let bbox = data.bounding_box();
     // Distinct coordinate values per axis give the data's resolution.
@@ -565,7 +624,7 @@ fn points_above_cap(data: &IntervalData, f: &RationalFunction, cap: f64) -> Opti
         })
         .collect();
     let total: usize = per_axis.iter().product();
-    let mut found: Vec<(f64, Vec<f64>)> = Vec::new();
+    let mut found: Vec<(f64, f64, Vec<f64>)> = Vec::new();
     let mut x = vec![0.0; dim];
     for idx in 0..total {
         let mut rest = idx;
@@ -577,8 +636,10 @@ fn points_above_cap(data: &IntervalData, f: &RationalFunction, cap: f64) -> Opti
             x[k] = bbox.lower[k] + t * (bbox.upper[k] - bbox.lower[k]);
         }
         let v = f.eval(&x);
+        let cap = cap_at(&x);
         if v.is_nan() || v > 1.01 * cap {
-            found.push((if v.is_finite() { v } else { f64::MAX }, x.clone()));
+            let excess = if v.is_finite() { v / cap } else { f64::MAX };
+            found.push((excess, cap, x.clone()));
         }
     }
     if found.is_empty() {
@@ -586,26 +647,38 @@ fn points_above_cap(data: &IntervalData, f: &RationalFunction, cap: f64) -> Opti
     }
     found.sort_by(|a, b| b.0.total_cmp(&a.0));
     found.truncate(CAP_POINTS_PER_ROUND);
-    Some(found.into_iter().flat_map(|(_, p)| p).collect())
+    let caps = found.iter().map(|p| p.1).collect();
+    Some((found.into_iter().flat_map(|(_, _, p)| p).collect(), caps))
 }
 
-/// `data` with `points` added as `[0, cap]` constraints.
+/// `data` with `points` added as `[0, cap]` constraints, one cap each.
 fn with_cap_points(
     data: &IntervalData,
     points: Vec<f64>,
-    cap: f64,
+    caps: &[f64],
 ) -> Result<IntervalData, rational_core::FitError> {
-    let dim = data.dim();
-    let n = points.len() / dim;
     let mut all = data.points().to_vec();
     all.extend(points);
     let mut lo = data.lo().to_vec();
     let mut hi = data.hi().to_vec();
     let mut values: Vec<f64> = (0..data.len()).map(|i| data.value(i)).collect();
-    lo.extend(std::iter::repeat_n(0.0, n));
-    hi.extend(std::iter::repeat_n(cap, n));
-    values.extend(std::iter::repeat_n(0.5 * cap, n));
-    IntervalData::new(dim, all, lo, hi)?.with_values(values)
+    lo.extend(std::iter::repeat_n(0.0, caps.len()));
+    hi.extend_from_slice(caps);
+    values.extend(caps.iter().map(|c| 0.5 * c));
+    IntervalData::new(data.dim(), all, lo, hi)?.with_values(values)
+}
+
+/// `data` with every interval and value divided by its point's factor.
+fn divided_by(
+    data: &IntervalData,
+    factors: &[f64],
+) -> Result<IntervalData, rational_core::FitError> {
+    let lo = data.lo().iter().zip(factors).map(|(v, f)| v / f).collect();
+    let hi = data.hi().iter().zip(factors).map(|(v, f)| v / f).collect();
+    let values = (0..data.len())
+        .map(|i| data.value(i) / factors[i])
+        .collect();
+    IntervalData::new(data.dim(), data.points().to_vec(), lo, hi)?.with_values(values)
 }
 
 fn fit_channel(
@@ -627,25 +700,44 @@ fn fit_channel(
         }
     };
     let rel_tol = s.design.map_or(s.rel_tol, |d| d.rel_tol);
-    let mut report = fit(&data, &s.fit).map_err(|e| BrdfError::Fit { channel, source: e })?;
+    let fit_err = |e| BrdfError::Fit { channel, source: e };
+    // With a lobe the functions fit data / lobe in the intervals divided by it.
+    let factors: Vec<f64> = match &s.lobe {
+        Some(lobe) => used
+            .iter()
+            .map(|&i| lobe.factors_at(samples.rows[i].angles, s.mode)[c])
+            .collect(),
+        None => vec![1.0; used.len()],
+    };
+    let measured_lo = data.lo().to_vec();
+    let data = if s.lobe.is_some() {
+        divided_by(&data, &factors).map_err(fit_err)?
+    } else {
+        data
+    };
+    let mut report = fit(&data, &s.fit).map_err(fit_err)?;
     let mut bounds = bounds;
     if let (Some(design), Some(b)) = (&s.design, bounds.as_mut()) {
         // Between the cells nothing bounds p / q: check a grid twice as
         // dense, add the points above the cap as [0, cap] and fit again.
         let cap = design.peak_cap * b.peak;
+        let coordinates = s.reduction.coordinates;
+        let cap_at = |x: &[f64]| match &s.lobe {
+            Some(lobe) => cap / lobe.factors_at(coordinates.angles(x), s.mode)[c],
+            None => cap,
+        };
         let mut augmented = data.clone();
         for _ in 0..CAP_ROUNDS {
-            let Some(more) = points_above_cap(&augmented, &report.function, cap) else {
+            let Some((more, caps)) = points_above_cap(&augmented, &report.function, &cap_at) else {
                 break;
             };
-            b.cap_points += more.len() / augmented.dim();
-            augmented = with_cap_points(&augmented, more, cap)
-                .map_err(|e| BrdfError::Fit { channel, source: e })?;
-            report = fit(&augmented, &s.fit).map_err(|e| BrdfError::Fit { channel, source: e })?;
+            b.cap_points += caps.len();
+            augmented = with_cap_points(&augmented, more, &caps).map_err(fit_err)?;
+            report = fit(&augmented, &s.fit).map_err(fit_err)?;
         }
     }
     let f = report.function.clone();
-    let (mut wsum, mut wsq) = (0.0_f64, 0.0_f64);
+    let (mut wsum, mut wsq, mut sq) = (0.0_f64, 0.0_f64, 0.0_f64);
     // Relative errors over the samples whose interval is relative (above the
     // noise floor); below it the bound is absolute.
     let (mut max_rel, mut sum_rel, mut n_rel) = (0.0_f64, 0.0, 0usize);
@@ -653,13 +745,14 @@ fn fit_channel(
     for (k, &i) in used.iter().enumerate() {
         let row = &samples.rows[i];
         let v = row.value[c];
-        let fv = f.eval(data.point(k));
+        let fv = f.eval(data.point(k)) * factors[k];
         let e = fv - v;
+        sq += e * e;
         wsum += row.cos_weight;
         wsq += row.cos_weight * e * e;
         let relative_bound = rel_tol * row.lo[c].min(v);
-        if v <= 0.0 || v - data.lo()[k] > relative_bound * (1.0 + 1e-12) {
-            floor_abs = floor_abs.max(v - data.lo()[k]);
+        if v <= 0.0 || v - measured_lo[k] > relative_bound * (1.0 + 1e-12) {
+            floor_abs = floor_abs.max(v - measured_lo[k]);
         } else {
             max_rel = max_rel.max((e / v).abs());
             sum_rel += (e / v).abs();
@@ -684,14 +777,15 @@ fn fit_channel(
         },
         max_rel_all: 0.0,
         mean_rel_all: 0.0,
-        rmse: report.errors.rmse,
+        // Of the product with the lobe (the engine's RMSE is of the ratio).
+        rmse: (sq / used.len().max(1) as f64).sqrt(),
         cos_rmse: if wsum > 0.0 { (wsq / wsum).sqrt() } else { 0.0 },
         seconds: report.seconds,
         interval_scale: report.interval_scale,
         bounds,
         // The baselines divide by the value: plain relative intervals only
         // (the fidelity benchmark compares the analytic peer by its renders).
-        baselines: if s.baselines && s.design.is_none() && s.mode.is_rgb() {
+        baselines: if s.baselines && s.design.is_none() && s.mode.is_rgb() && s.lobe.is_none() {
             vec![
                 crate::baseline::polynomial(
                     &data,

@@ -33,6 +33,7 @@ mod error;
 pub mod fidelity;
 mod fitting;
 mod geometry;
+mod lobe;
 mod material;
 pub mod merl;
 mod reduce;
@@ -53,6 +54,7 @@ pub use fitting::{
 pub use geometry::{
     clamp_elevation, cross, dot, from_spherical, normalize, rotate, to_spherical, HalfDiff, Vec3,
 };
+pub use lobe::{Lobe, LobeF32, LOBE_ALPHA_RANGE};
 pub use material::Brdf;
 pub use merl::{MerlBrdf, TabulateOptions};
 pub use reduce::{Coordinates, Reduction, ReductionKind, Samples, MAX_BINS};

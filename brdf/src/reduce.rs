@@ -49,6 +49,18 @@ impl Coordinates {
             vec![a, b]
         }
     }
+
+    /// Rusinkiewicz angles `(theta_h, theta_d, phi_d)` of fitting
+    /// coordinates (the inverse of [`Coordinates::map`]); a 2-D point is on
+    /// the slice `phi_d = pi / 2`.
+    pub fn angles(self, x: &[f64]) -> [f64; 3] {
+        let (theta_h, theta_d) = match self {
+            Coordinates::Radians => (x[0], x[1]),
+            Coordinates::SqrtThetaH => (x[0] * x[0] * (PI / 2.0), x[1]),
+            Coordinates::Cosines => (x[0].clamp(-1.0, 1.0).acos(), x[1].clamp(-1.0, 1.0).acos()),
+        };
+        [theta_h, theta_d, x.get(2).copied().unwrap_or(PI / 2.0)]
+    }
 }
 
 /// How a BRDF is sampled for fitting.

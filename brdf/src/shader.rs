@@ -183,6 +183,74 @@ fn to_cut_fn(b: &CompactBrdf, l: Language, prefix: &str) -> String {
     out
 }
 
+/// `{prefix}_lobe(wi, wo)`: the factors [`crate::LobeF32::factors`]
+/// computes, in its order; empty for a fit without a lobe.
+fn lobe_fn(b: &CompactBrdf, l: Language, prefix: &str) -> String {
+    let Some(lobe) = &b.lobe else {
+        return String::new();
+    };
+    let s = syntax(l);
+    let (f, v3) = (s.float, s.vec3);
+    let a2 = lobe.alpha * lobe.alpha;
+    let mut out = fn_header(l, &format!("{prefix}_lobe"), &[("wi", v3), ("wo", v3)], v3);
+    out += &format!("    {} = normalize(wi + wo);\n", decl(l, "h", v3, false));
+    out += &format!(
+        "    {} = h.z * h.z * ({} - 1.0) + 1.0;\n",
+        decl(l, "t", f, false),
+        lit(a2)
+    );
+    out += &format!(
+        "    {} = {} / ({} * t * t);\n",
+        decl(l, "d", f, false),
+        lit(a2),
+        lit(std::f32::consts::PI)
+    );
+    for (name, dir) in [("gi", "wi"), ("go", "wo")] {
+        out += &format!(
+            "    {} = max({dir}.z, 0.0);\n",
+            decl(l, &format!("c_{name}"), f, false)
+        );
+        out += &format!(
+            "    {} = 2.0 / (c_{name} + sqrt({} + (1.0 - {}) * c_{name} * c_{name}));\n",
+            decl(l, name, f, false),
+            lit(a2),
+            lit(a2)
+        );
+    }
+    out += &format!("    {} = 0.25 * d * gi * go;\n", decl(l, "spec", f, false));
+    out += &format!(
+        "    {} = 1.0 - clamp(dot(wi, h), 0.0, 1.0);\n",
+        decl(l, "u", f, false)
+    );
+    out += &format!("    {} = u * u;\n", decl(l, "u2", f, false));
+    out += &format!("    {} = u2 * u2 * u;\n", decl(l, "m", f, false));
+    let terms: Vec<String> = (0..3)
+        .map(|c| {
+            format!(
+                "{} + spec * ({} + (1.0 - {}) * m)",
+                lit(lobe.kd_over_pi[c]),
+                lit(lobe.f0[c]),
+                lit(lobe.f0[c])
+            )
+        })
+        .collect();
+    out += &format!(
+        "    {} = {v3}({});\n",
+        decl(l, "v", v3, false),
+        terms.join(", ")
+    );
+    match b.mode {
+        ColourMode::Rgb => out += "    return v;\n}\n\n",
+        ColourMode::LuminanceChroma => {
+            let [wr, wg, wb] = crate::colour::LUMINANCE_WEIGHTS.map(|w| lit(w as f32));
+            out += &format!(
+                "    return {v3}({wr} * v.x + {wg} * v.y + {wb} * v.z, 1.0, 1.0);\n}}\n\n"
+            );
+        }
+    }
+    out
+}
+
 fn source_with_prefix(b: &CompactBrdf, l: Language, prefix: &str) -> String {
     let upper = prefix.to_ascii_uppercase();
     let s = syntax(l);
@@ -250,20 +318,36 @@ fn source_with_prefix(b: &CompactBrdf, l: Language, prefix: &str) -> String {
         out += &channel_fn(l, &s, c, k, prefix);
     }
     out += &to_cut_fn(b, l, prefix);
+    out += &lobe_fn(b, l, prefix);
     out += &fn_header(l, &format!("{prefix}_brdf"), &[("wi", v3), ("wo", v3)], v3);
     out += &format!("    if (wi.z <= 0.0 || wo.z <= 0.0) {{ return {v3}(0.0, 0.0, 0.0); }}\n");
-    let args = if b.has_elevation_cut() {
-        format!("{prefix}_to_cut(wi), {prefix}_to_cut(wo)")
+    let (wi, wo) = if b.has_elevation_cut() {
+        (
+            format!("{prefix}_to_cut(wi)"),
+            format!("{prefix}_to_cut(wo)"),
+        )
     } else {
-        "wi, wo".to_string()
+        ("wi".to_string(), "wo".to_string())
     };
+    out += &format!("    {} = {wi};\n", decl(l, "wi_c", v3, false));
+    out += &format!("    {} = {wo};\n", decl(l, "wo_c", v3, false));
     out += &format!(
-        "    {} = {prefix}_coords({args});\n",
+        "    {} = {prefix}_coords(wi_c, wo_c);\n",
         decl(l, "x", v3, false)
     );
+    let components = ["x", "y", "z"];
     let calls: Vec<String> = (0..b.channels.len())
-        .map(|k| format!("{prefix}_channel_{k}(x)"))
+        .map(|k| match &b.lobe {
+            Some(_) => format!("({prefix}_channel_{k}(x) * lobe.{})", components[k]),
+            None => format!("{prefix}_channel_{k}(x)"),
+        })
         .collect();
+    if b.lobe.is_some() {
+        out += &format!(
+            "    {} = {prefix}_lobe(wi_c, wo_c);\n",
+            decl(l, "lobe", v3, false)
+        );
+    }
     match b.mode {
         ColourMode::Rgb => {
             out += &format!(

@@ -3,7 +3,7 @@
 use brdf::shader::{shader_source, shader_source_named, Language};
 use brdf::{
     compact::to_f32, fit_brdf, from_spherical, BlinnPhong, BrdfFitSettings, ColourMode,
-    CompactBrdf, CookTorranceGgx, Coordinates, FittedBrdf, Reduction, ReductionKind,
+    CompactBrdf, CookTorranceGgx, Coordinates, FittedBrdf, Lobe, Reduction, ReductionKind,
 };
 
 fn fits() -> Vec<FittedBrdf> {
@@ -59,6 +59,26 @@ fn fits() -> Vec<FittedBrdf> {
     let (f, _) = fit_brdf(&m, &s).unwrap();
     assert_eq!(f.mode, ColourMode::LuminanceChroma);
     out.push(f);
+    // Lobe times rational, in both colour modes (and 3-D): every evaluator
+    // multiplies by the same lobe.
+    let lobe = Lobe::fit(&b);
+    for (mode, kind) in [
+        (ColourMode::Rgb, ReductionKind::Slice2d),
+        (ColourMode::LuminanceChroma, ReductionKind::Full3d),
+    ] {
+        let r = Reduction::default()
+            .with_kind(kind)
+            .with_resolution(12, 12)
+            .with_phi_resolution(8)
+            .whole_hemisphere();
+        let s = BrdfFitSettings::default()
+            .with_reduction(r)
+            .with_colour_mode(mode)
+            .with_lobe(Some(lobe));
+        let (f, _) = fit_brdf(&b, &s).unwrap();
+        assert_eq!(f.lobe, Some(lobe));
+        out.push(f);
+    }
     out
 }
 
@@ -126,15 +146,33 @@ fn compact_binary_round_trips() {
         assert_eq!(back.to_bytes(), bytes);
         let cut = f.reduction.max_elevation_deg < 90.0;
         assert_eq!(c.has_elevation_cut(), cut);
-        let header = if cut { 16 } else { 12 };
+        let header = if cut { 16 } else { 12 } + if f.lobe.is_some() { 28 } else { 0 };
         assert!(bytes.len() < header + 3 * (5 + 3 + 4 * (6 + 60)));
         let weighted = f.channels.iter().any(|r| r.basis().is_weighted());
         let chroma = f.mode == ColourMode::LuminanceChroma;
         assert_eq!(
             bytes[7],
-            u8::from(weighted) | (u8::from(chroma) << 1) | (u8::from(cut) << 2),
+            u8::from(weighted)
+                | (u8::from(chroma) << 1)
+                | (u8::from(cut) << 2)
+                | (u8::from(f.lobe.is_some()) << 3),
             "flags byte"
         );
+        if f.lobe.is_some() {
+            // The lobe's roughness is the last of its seven values.
+            let at = header - 4;
+            let mut rough = bytes.clone();
+            rough[at..header].copy_from_slice(&0.0f32.to_le_bytes());
+            let e = CompactBrdf::from_bytes(&rough).unwrap_err().to_string();
+            assert!(e.contains("lobe") && e.contains("roughness"), "{e}");
+            let mut short = bytes.clone();
+            short.truncate(header - 2);
+            let e = CompactBrdf::from_bytes(&short).unwrap_err().to_string();
+            assert!(e.contains("truncated lobe"), "{e}");
+            // ALTA's p / q cannot carry the lobe.
+            let e = brdf::AltaRational::from_fitted(&f).unwrap_err().to_string();
+            assert!(e.contains("lobe"), "{e}");
+        }
         assert_eq!(back.mode, f.mode);
         if weighted {
             assert_eq!(back.channels[0].weights, vec![1, 2, 2]);
@@ -200,6 +238,13 @@ fn generated_wgsl_and_glsl_are_valid_shaders() {
                 .any(|(_, f)| f.name.as_deref() == Some("ratfit_to_cut")),
             c.has_elevation_cut()
         );
+        assert_eq!(
+            module
+                .functions
+                .iter()
+                .any(|(_, f)| f.name.as_deref() == Some("ratfit_lobe")),
+            c.lobe.is_some()
+        );
 
         let glsl = format!(
             "#version 450\n{}\nlayout(location = 0) out vec4 color;\nvoid main() {{ color = vec4(ratfit_brdf(vec3(0.0, 0.6, 0.8), vec3(0.0, -0.6, 0.8)), 1.0); }}\n",
@@ -252,6 +297,11 @@ fn alta_export_reads_back_and_evaluates_the_same() {
     std::fs::create_dir_all(&dir).unwrap();
     for f in fits() {
         let exported = brdf::AltaRational::from_fitted(&f);
+        if f.lobe.is_some() {
+            let e = exported.unwrap_err().to_string();
+            assert!(e.contains("lobe"), "{e}");
+            continue;
+        }
         if !f.mode.is_rgb() {
             let e = exported.unwrap_err().to_string();
             assert!(e.contains("luminance-chroma"), "{e}");

@@ -210,7 +210,9 @@ fn mutated_text_files_never_panic() {
     std::fs::remove_dir_all(&tmp).ok();
 }
 
-fn small_fit() -> FittedBrdf {
+/// A small fit, with or without the analytic lobe (whose parameters the
+/// mutations then reach too).
+fn small_fit(lobe: bool) -> FittedBrdf {
     let m = BlinnPhong {
         kd: [0.2; 3],
         ks: [0.3; 3],
@@ -218,6 +220,7 @@ fn small_fit() -> FittedBrdf {
     };
     let s = BrdfFitSettings::default()
         .with_reduction(Reduction::default().with_resolution(16, 16))
+        .with_lobe(lobe.then(|| brdf::Lobe::fit(&m)))
         .with_baselines(false);
     fit_brdf(&m, &s).unwrap().0
 }
@@ -238,13 +241,15 @@ impl Brdf for Compact {
 
 #[test]
 fn mutated_fit_files_never_panic() {
-    let fit = small_fit();
-    let json = serde_json::to_vec(&fit).unwrap();
-    check("fit JSON", mutations(&json, 400, 5), |b| {
-        serde_json::from_slice::<FittedBrdf>(b).ok()
-    });
-    let binary = CompactBrdf::from_fitted(&fit).to_bytes();
-    check("compact binary", mutations(&binary, 400, 6), |b| {
-        CompactBrdf::from_bytes(b).ok().map(Compact)
-    });
+    for lobe in [false, true] {
+        let fit = small_fit(lobe);
+        let json = serde_json::to_vec(&fit).unwrap();
+        check("fit JSON", mutations(&json, 400, 5), |b| {
+            serde_json::from_slice::<FittedBrdf>(b).ok()
+        });
+        let binary = CompactBrdf::from_fitted(&fit).to_bytes();
+        check("compact binary", mutations(&binary, 400, 6), |b| {
+            CompactBrdf::from_bytes(b).ok().map(Compact)
+        });
+    }
 }

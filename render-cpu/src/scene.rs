@@ -306,6 +306,10 @@ pub enum MaterialDescription {
         /// `dims` is then 3).
         #[serde(default, skip_serializing_if = "Option::is_none")]
         target_de: Option<f64>,
+        /// Fit the ratio of the source to a Cook-Torrance GGX lobe fitted
+        /// first (lobe times rational; see `brdf::Lobe`). Default false.
+        #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+        lobe: bool,
     },
 }
 

@@ -372,6 +372,23 @@ irradiance = [1.0, 1.0, 1.0]
         SceneDescription::parse(&text.replace("rel_tol = 0.1", "rel_tol = 0.2"), "t").unwrap();
     let (_, log) = prepare(changed, Path::new("."), "t", &opts).unwrap();
     assert_eq!(log.find(Action::Prepared, "material fit").len(), 1);
+    // The lobe-times-rational form is another key too, and its fit carries
+    // the lobe into the renderer's f32 form.
+    let lobe = SceneDescription::parse(
+        &text.replace("rel_tol = 0.1", "rel_tol = 0.1\nlobe = true"),
+        "t",
+    )
+    .unwrap();
+    let (scene, log) = prepare(lobe.clone(), Path::new("."), "t", &opts).unwrap();
+    assert_eq!(log.find(Action::Prepared, "material fit").len(), 1, "{log}");
+    match &scene.materials[0].closed_form {
+        Some(render_cpu::ClosedForm::Fit(f)) => {
+            assert!(f.fit().lobe.is_some() && f.compact().lobe.is_some());
+        }
+        _ => panic!("the fitted material has no closed form"),
+    }
+    let (_, log) = prepare(lobe, Path::new("."), "t", &opts).unwrap();
+    assert_eq!(log.find(Action::Cached, "material fit").len(), 1, "{log}");
     // With an environment the BRDF is sampled: inverse CDFs are fitted, then cached.
     let with_env =
         format!("{text}\n[environment]\nkind = \"uniform\"\nradiance = [1.0, 1.0, 1.0]\n");

@@ -127,7 +127,17 @@ fn synthetic(family: BasisFamily, coordinates: Coordinates, dims: usize, seed: u
         })
         .collect();
     CompactBrdf {
-        mode: brdf::ColourMode::Rgb,
+        // A third of them multiplied by an analytic lobe, in both colour modes.
+        mode: if seed % 2 == 0 {
+            brdf::ColourMode::Rgb
+        } else {
+            brdf::ColourMode::LuminanceChroma
+        },
+        lobe: (seed % 3 == 0).then_some(brdf::LobeF32 {
+            kd_over_pi: [0.05, 0.1, 0.02],
+            f0: [0.04, 0.5, 0.9],
+            alpha: 0.3,
+        }),
         coordinates,
         dims,
         max_theta_d,
@@ -231,6 +241,7 @@ fn gpu_coordinates_match_the_f64_half_difference_angles() {
     };
     let fit = CompactBrdf {
         mode: brdf::ColourMode::Rgb,
+        lobe: None,
         coordinates: Coordinates::Radians,
         dims: 3,
         max_theta_d: pi,

@@ -32,8 +32,9 @@ pub struct FidelityArgs {
     #[arg(long, default_value = "target/bench-fidelity")]
     out: PathBuf,
     /// A few materials at small size (under three minutes): 2 RGL files,
-    /// 64 x 64 renders, the 2-D fit at 20% and one 3-D luminance-chroma
-    /// fit at 16% on a 16^3 grid with at most 60 coefficients per function.
+    /// 64 x 64 renders, the 2-D fit at 20% and the 3-D luminance-chroma
+    /// fits at 16% on a 16^3 grid, with and without the GGX lobe, with at
+    /// most 60 coefficients per function.
     #[arg(long)]
     quick: bool,
     /// Only materials whose file name contains this.
@@ -46,6 +47,11 @@ pub struct FidelityArgs {
     /// luminance-chroma).
     #[arg(long, value_delimiter = ',', default_value = "rgb,luminance-chroma")]
     colour: Vec<ColourMode>,
+    /// Lobes of the 3-D fits (comma-separated): none (the table itself) and
+    /// ggx (the ratio of the table to a fitted Cook-Torrance GGX lobe; see
+    /// `ratfit fit --lobe`).
+    #[arg(long, value_delimiter = ',', default_value = "none,ggx")]
+    lobe: Vec<LobeChoice>,
     /// Bins per angle of the 3-D grid.
     #[arg(long, default_value_t = 24)]
     resolution_3d: usize,
@@ -60,6 +66,15 @@ pub struct FidelityArgs {
     /// to 0.25 CIEDE2000 of each other).
     #[arg(long, default_value_t = 1024)]
     sky_spp: usize,
+}
+
+/// What the rational functions of a 3-D fit multiply.
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum LobeChoice {
+    /// Nothing: the functions fit the table.
+    None,
+    /// A Cook-Torrance GGX lobe fitted to the table first.
+    Ggx,
 }
 
 /// One representation of one material.
@@ -124,6 +139,7 @@ fn load(path: &Path) -> Result<Arc<dyn Brdf>> {
 struct Plan {
     perceptual_2d: bool,
     modes: Vec<ColourMode>,
+    lobes: Vec<LobeChoice>,
     tols: Vec<f64>,
     resolution_3d: usize,
     max_coeffs: usize,
@@ -147,33 +163,47 @@ fn rational_reps(table: &dyn Brdf, plan: &Plan) -> Vec<Attempt> {
     if plan.perceptual_2d {
         let start = Instant::now();
         let t = plan.tols.iter().copied().fold(0.0, f64::max).min(0.08);
-        let r = rational_mode::fit_perceptual(table, 2, t, 90, plan.max_coeffs, ColourMode::Rgb);
+        let r =
+            rational_mode::fit_perceptual(table, 2, t, 90, plan.max_coeffs, ColourMode::Rgb, None);
         out.push((
             format!("rational 2-D perceptual {}%", t * 100.0),
             r,
             start.elapsed().as_secs_f64(),
         ));
     }
+    // The lobe is fitted once; its time counts in every fit that uses it.
+    let lobe = plan.lobes.contains(&LobeChoice::Ggx).then(|| {
+        let start = Instant::now();
+        (brdf::Lobe::fit(table), start.elapsed().as_secs_f64())
+    });
     for &t in &plan.tols {
         for &mode in &plan.modes {
-            let start = Instant::now();
-            let r = rational_mode::fit_perceptual(
-                table,
-                3,
-                t,
-                plan.resolution_3d,
-                plan.max_coeffs,
-                mode,
-            );
-            let what = match mode {
-                ColourMode::Rgb => "rgb",
-                ColourMode::LuminanceChroma => "luminance-chroma",
-            };
-            out.push((
-                format!("rational 3-D {what} {}%", t * 100.0),
-                r,
-                start.elapsed().as_secs_f64(),
-            ));
+            for &choice in &plan.lobes {
+                let start = Instant::now();
+                let (with, lobe_s) = match (choice, &lobe) {
+                    (LobeChoice::Ggx, Some((l, s))) => (Some(*l), *s),
+                    _ => (None, 0.0),
+                };
+                let r = rational_mode::fit_perceptual(
+                    table,
+                    3,
+                    t,
+                    plan.resolution_3d,
+                    plan.max_coeffs,
+                    mode,
+                    with,
+                );
+                let what = match mode {
+                    ColourMode::Rgb => "rgb",
+                    ColourMode::LuminanceChroma => "luminance-chroma",
+                };
+                let lobe_name = if with.is_some() { " x GGX lobe" } else { "" };
+                out.push((
+                    format!("rational 3-D {what}{lobe_name} {}%", t * 100.0),
+                    r,
+                    start.elapsed().as_secs_f64() + lobe_s,
+                ));
+            }
         }
     }
     out
@@ -245,6 +275,7 @@ mod rational_mode {
         resolution: usize,
         max_coeffs: usize,
         mode: ColourMode,
+        lobe: Option<brdf::Lobe>,
     ) -> Result<(FittedBrdf, String)> {
         let kind = if dims == 3 {
             ReductionKind::Full3d
@@ -260,6 +291,7 @@ mod rational_mode {
             .with_reduction(reduction)
             .with_design(PerceptualBounds::default().with_rel_tol(rel_tol)?)
             .with_colour_mode(mode)
+            .with_lobe(lobe)
             .with_baselines(false)
             .with_fit_settings(engine(max_coeffs)?);
         let (f, r) = fit_brdf(table, &settings)?;
@@ -468,6 +500,11 @@ fn settings_and_plan(args: &FidelityArgs) -> (ValidationSettings, Plan) {
             vec![ColourMode::LuminanceChroma]
         } else {
             args.colour.clone()
+        },
+        lobes: if args.quick {
+            vec![LobeChoice::None, LobeChoice::Ggx]
+        } else {
+            args.lobe.clone()
         },
         tols: if args.quick {
             vec![0.16]

@@ -81,6 +81,90 @@ impl MaterialBuilder<'_> {
         Ok(key)
     }
 
+    /// A `fitted` material: read from the cache, or fitted to its source
+    /// (which is then built) and cached.
+    fn build_fitted(
+        &mut self,
+        name: &str,
+        desc: &MaterialDescription,
+        key: u64,
+        log: &mut PrepareLog,
+    ) -> Result<Built, RenderError> {
+        let MaterialDescription::Fitted {
+            source,
+            rel_tol,
+            dims,
+            max_coeffs,
+            target_de,
+            lobe,
+        } = desc.clone()
+        else {
+            unreachable!("build_fitted is called on fitted materials");
+        };
+        let start = Instant::now();
+        let what = format!("material {name}");
+        // Fits without a lobe keep the keys they had before the key existed.
+        let settings_text = format!(
+            "fitted source={source} rel_tol={rel_tol} dims={dims} max_coeffs={max_coeffs} target_de={target_de:?}{}",
+            if lobe { " lobe=ggx" } else { "" }
+        );
+        let fitted = match self
+            .cache
+            .get("fit", key, &settings_text)
+            .and_then(|v| serde_json::from_value::<FittedBrdf>(v).ok())
+        {
+            Some(f) => {
+                log.push(Action::Cached, &what, format!("fit of `{source}` read from the cache ({} coefficients); `{source}` not loaded", f.coefficients()), start.elapsed().as_secs_f64());
+                f
+            }
+            None => {
+                let (src, _, src_desc, _, _) = self.build(&source, log)?;
+                let dims = if target_de.is_some() { 3 } else { dims };
+                let settings = fit_settings(rel_tol, dims, max_coeffs)
+                    .map_err(|e| self.material_error(name, e))?
+                    .with_lobe(lobe.then(|| brdf::Lobe::fit(src.as_ref())));
+                let (fitted, summary) = match target_de {
+                    Some(target) => fit_for_target(&src, target, settings)?,
+                    None => {
+                        let (f, report) = brdf::fit_brdf(src.as_ref(), &settings)
+                            .map_err(|e| self.material_error(name, e))?;
+                        let worst = report
+                            .channels
+                            .iter()
+                            .map(|c| c.max_rel)
+                            .fold(0.0, f64::max);
+                        (f, format!("rel_tol {rel_tol}, max rel error {worst:.3}"))
+                    }
+                };
+                let stored = self.cache.put(
+                    "fit",
+                    key,
+                    &settings_text,
+                    serde_json::to_value(&fitted).unwrap_or_default(),
+                );
+                log.push(
+                    Action::Prepared,
+                    &what,
+                    format!(
+                        "fitted {src_desc} ({}-D, {summary}): {} coefficients; {stored}",
+                        dims,
+                        fitted.coefficients()
+                    ),
+                    start.elapsed().as_secs_f64(),
+                );
+                fitted
+            }
+        };
+        let bytes = fitted.byte_size_f32();
+        let d = format!(
+            "rational fit of `{source}` ({} coefficients); {}",
+            fitted.coefficients(),
+            domain_note(&fitted)
+        );
+        let fit = Arc::new(FitInDomain::new(fitted));
+        Ok((fit.clone(), bytes, d, key, Some(ClosedForm::Fit(fit))))
+    }
+
     pub(super) fn build(&mut self, name: &str, log: &mut PrepareLog) -> Result<Built, RenderError> {
         let key = self.key(name)?;
         let desc = self.materials[name].clone();
@@ -176,71 +260,7 @@ impl MaterialBuilder<'_> {
                 let fit = Arc::new(FitInDomain::new(fitted));
                 (fit.clone(), bytes, d, key, Some(ClosedForm::Fit(fit)))
             }
-            MaterialDescription::Fitted {
-                source,
-                rel_tol,
-                dims,
-                max_coeffs,
-                target_de,
-            } => {
-                let settings_text = format!(
-                    "fitted source={source} rel_tol={rel_tol} dims={dims} max_coeffs={max_coeffs} target_de={target_de:?}"
-                );
-                let fitted = match self
-                    .cache
-                    .get("fit", key, &settings_text)
-                    .and_then(|v| serde_json::from_value::<FittedBrdf>(v).ok())
-                {
-                    Some(f) => {
-                        log.push(Action::Cached, &what, format!("fit of `{source}` read from the cache ({} coefficients); `{source}` not loaded", f.coefficients()), start.elapsed().as_secs_f64());
-                        f
-                    }
-                    None => {
-                        let (src, _, src_desc, _, _) = self.build(&source, log)?;
-                        let dims = if target_de.is_some() { 3 } else { dims };
-                        let settings = fit_settings(rel_tol, dims, max_coeffs)
-                            .map_err(|e| self.material_error(name, e))?;
-                        let (fitted, summary) = match target_de {
-                            Some(target) => fit_for_target(&src, target, settings)?,
-                            None => {
-                                let (f, report) = brdf::fit_brdf(src.as_ref(), &settings)
-                                    .map_err(|e| self.material_error(name, e))?;
-                                let worst = report
-                                    .channels
-                                    .iter()
-                                    .map(|c| c.max_rel)
-                                    .fold(0.0, f64::max);
-                                (f, format!("rel_tol {rel_tol}, max rel error {worst:.3}"))
-                            }
-                        };
-                        let stored = self.cache.put(
-                            "fit",
-                            key,
-                            &settings_text,
-                            serde_json::to_value(&fitted).unwrap_or_default(),
-                        );
-                        log.push(
-                            Action::Prepared,
-                            &what,
-                            format!(
-                                "fitted {src_desc} ({}-D, {summary}): {} coefficients; {stored}",
-                                dims,
-                                fitted.coefficients()
-                            ),
-                            start.elapsed().as_secs_f64(),
-                        );
-                        fitted
-                    }
-                };
-                let bytes = fitted.byte_size_f32();
-                let d = format!(
-                    "rational fit of `{source}` ({} coefficients); {}",
-                    fitted.coefficients(),
-                    domain_note(&fitted)
-                );
-                let fit = Arc::new(FitInDomain::new(fitted));
-                (fit.clone(), bytes, d, key, Some(ClosedForm::Fit(fit)))
-            }
+            MaterialDescription::Fitted { .. } => self.build_fitted(name, &desc, key, log)?,
         };
         if is_analytic {
             log.push(
