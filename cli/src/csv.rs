@@ -3,6 +3,16 @@
 use anyhow::{bail, Context, Result};
 use std::path::Path;
 
+/// A CSV field: quoted when it holds a comma, a quote or a line break
+/// (quotes doubled, line breaks made spaces).
+pub fn quote(s: &str) -> String {
+    if s.contains([',', '"', '\n']) {
+        format!("\"{}\"", s.replace('"', "\"\"").replace('\n', " "))
+    } else {
+        s.to_string()
+    }
+}
+
 /// Rows of numbers; a first line that does not parse is taken as a header.
 pub fn read_numeric(path: &Path) -> Result<Vec<Vec<f64>>> {
     let text =

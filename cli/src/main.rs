@@ -1,6 +1,7 @@
 //! `ratfit`: fit data with rational functions inside error bounds.
 
 mod args;
+mod batch;
 mod bench;
 mod brdf_cmd;
 mod canvas;
@@ -52,6 +53,10 @@ enum Command {
     },
     /// Fit a measured BRDF (each RGB channel) and print the error report.
     Fit(brdf_cmd::FitArgs),
+    /// Fit every material of a manifest (TOML) with its `ratfit fit`
+    /// options: outputs keyed by content, skipped when present, written
+    /// atomically; `--shard I/N` for job arrays; `summary.csv` at the end.
+    Batch(batch::BatchArgs),
     /// Evaluate a fit: at points (CSV x_1..x_d, for `fit-csv` fits; one value
     /// per row) or at direction pairs (CSV theta_i,phi_i,theta_o,phi_o, for
     /// `fit` fits; r,g,b per row).
@@ -306,6 +311,7 @@ fn main() -> Result<()> {
             eprintln!("wrote {}", output.display());
         }
         Command::Fit(args) => brdf_cmd::run_fit(args)?,
+        Command::Batch(args) => batch::run_batch(args)?,
         Command::Cdf(args) => cdf_cmd::run_cdf(args)?,
         Command::SampleStats(args) => cdf_cmd::run_stats(args)?,
         Command::Bench(args) => bench::run_bench(args)?,

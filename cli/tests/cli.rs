@@ -592,3 +592,106 @@ fn bench_rgl_fits_real_files_in_two_and_three_dimensions() {
     let png = std::fs::read(out_dir.join("error_vs_time.png")).unwrap();
     assert!(png.starts_with(b"\x89PNG"));
 }
+
+/// `ratfit batch`: shards split the manifest, a rerun fits nothing, a
+/// changed setting or a lost output is fitted again, bad manifests are
+/// refused before anything is fitted.
+#[test]
+fn batch_resumes_shards_and_refuses_bad_manifests() {
+    let data = std::env::var_os("RATFIT_DATA")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/data"));
+    if !data.join("rgl").is_dir() {
+        eprintln!("SKIPPED batch on real files: no data folder (set RATFIT_DATA)");
+        return;
+    }
+    let dir = std::env::temp_dir().join(format!("ratfit-batch-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let manifest = dir.join("m.toml");
+    let write = |rel_tol: f64, extra: &str| {
+        let text = format!(
+            "[defaults]\nresolution = [16, 16]\nmax_coeffs = 30\nrel_tol = {rel_tol}\n\n\
+             [[material]]\npath = \"{d}/rgl/cm_military_green_rgb.bsdf\"\n\n\
+             [[material]]\nname = \"golden\"\npath = \"{d}/rgl/vch_golden_yellow_rgb.bsdf\"\nrel_tol = 0.2\n\n\
+             [[material]]\npath = \"{d}/rgl/aurora_white_rgb.bsdf\"\nlobe = true\n{extra}",
+            d = data.display()
+        );
+        std::fs::write(&manifest, text).unwrap();
+    };
+    let out = dir.join("out");
+    let run = |extra: &[&str]| {
+        let o = ratfit()
+            .arg("batch")
+            .arg(&manifest)
+            .arg("--out")
+            .arg(&out)
+            .args(extra)
+            .output()
+            .unwrap();
+        (
+            o.status.success(),
+            String::from_utf8_lossy(&o.stdout).into_owned() + &String::from_utf8_lossy(&o.stderr),
+        )
+    };
+    write(0.15, "");
+    let (ok, text) = run(&["--shard", "0/2"]);
+    assert!(ok && text.contains("2 fitted, 0 skipped"), "{text}");
+    let (ok, text) = run(&["--shard", "1/2"]);
+    assert!(
+        ok && text.contains("1 fitted") && text.contains("3 of 3 materials done"),
+        "{text}"
+    );
+    let (ok, text) = run(&[]);
+    assert!(ok && text.contains("0 fitted, 3 skipped"), "{text}");
+    let summary = std::fs::read_to_string(out.join("summary.csv")).unwrap();
+    assert_eq!(
+        summary.lines().filter(|l| l.contains(",done,")).count(),
+        3,
+        "{summary}"
+    );
+    // Every output is a fit file that loads, with its key in its name.
+    for line in summary.lines().skip(1) {
+        let file = line.split(',').nth(4).unwrap();
+        let key = line.split(',').nth(2).unwrap();
+        assert!(file.contains(key), "{line}");
+        let e = ratfit()
+            .args(["export"])
+            .arg(out.join(file))
+            .args(["--to", "binary", "-o"])
+            .arg(dir.join("x.bin"))
+            .output()
+            .unwrap();
+        assert!(e.status.success(), "{}", String::from_utf8_lossy(&e.stderr));
+    }
+    // A changed default refits the two materials that use it.
+    write(0.12, "");
+    let (ok, text) = run(&[]);
+    assert!(ok && text.contains("2 fitted, 1 skipped"), "{text}");
+    // A lost output is fitted again, the others are skipped.
+    let golden: Vec<PathBuf> = std::fs::read_dir(&out)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.to_string_lossy().contains("golden-"))
+        .collect();
+    assert_eq!(golden.len(), 1);
+    std::fs::remove_file(&golden[0]).unwrap();
+    let (ok, text) = run(&[]);
+    assert!(ok && text.contains("1 fitted, 2 skipped"), "{text}");
+    // Bad manifests and flags: named, nothing fitted.
+    for (extra, expect) in [
+        ("rel_tl = 0.1\n", "`rel_tl` is not a `ratfit fit` option"),
+        ("rel_tol = \"x\"\n", "--rel-tol"),
+        ("output = \"a.json\"\n", "set by the batch"),
+        ("[[material]]\npath = \"nowhere.bsdf\"\n", "cannot read"),
+    ] {
+        write(0.12, extra);
+        let (ok, text) = run(&[]);
+        assert!(!ok && text.contains(expect), "{extra}: {text}");
+    }
+    write(0.12, "");
+    for bad in ["2/2", "1", "x/3"] {
+        let (ok, text) = run(&["--shard", bad]);
+        assert!(!ok && text.contains("--shard"), "{bad}: {text}");
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -30,13 +30,7 @@ pub const COLUMNS: [&str; 22] = [
     "note",
 ];
 
-fn quote(s: &str) -> String {
-    if s.contains([',', '"', '\n']) {
-        format!("\"{}\"", s.replace('"', "\"\"").replace('\n', " "))
-    } else {
-        s.to_string()
-    }
-}
+use crate::csv::quote;
 
 fn opt(v: Option<f64>) -> String {
     v.map_or_else(String::new, |v| format!("{v:e}"))
