@@ -43,9 +43,19 @@ impl Component {
     /// Coordinates of the rational part: `(theta_v, mu)` for theta,
     /// `(theta_v + theta_l, theta_v theta_l, tau)` for phi.
     pub fn fit_coordinates(self, natural: &[f64]) -> Vec<f64> {
+        let (x, n) = self.fit_coordinates_array(natural);
+        x[..n].to_vec()
+    }
+
+    /// [`Component::fit_coordinates`] on the stack (the per-sample path):
+    /// the coordinates and how many there are.
+    pub fn fit_coordinates_array(self, natural: &[f64]) -> ([f64; 3], usize) {
         match self {
-            Self::Theta => natural.to_vec(),
-            Self::Phi => vec![natural[0] + natural[1], natural[0] * natural[1], natural[2]],
+            Self::Theta => ([natural[0], natural[1], 0.0], 2),
+            Self::Phi => (
+                [natural[0] + natural[1], natural[0] * natural[1], natural[2]],
+                3,
+            ),
         }
     }
 
@@ -142,16 +152,16 @@ impl InverseCdf {
             // Exact boundary values, whatever the rational part is there.
             return k.base;
         }
-        let x = self.component.fit_coordinates(natural);
-        k.base + k.weight * self.rational.eval(&x)
+        let (x, n) = self.component.fit_coordinates_array(natural);
+        k.base + k.weight * self.rational.eval(&x[..n])
     }
 
     /// `(r(x), d r / d u)` with `u` the sampled variable.
     pub fn eval_with_derivative(&self, natural: &[f64]) -> (f64, f64) {
         let c = self.component;
         let k = c.known_part(natural);
-        let x = c.fit_coordinates(natural);
-        let (g, dg) = self.rational.value_and_partial(&x, c.sampled());
+        let (x, n) = c.fit_coordinates_array(natural);
+        let (g, dg) = self.rational.value_and_partial(&x[..n], c.sampled());
         let value = if k.weight == 0.0 {
             k.base
         } else {
@@ -165,7 +175,9 @@ impl InverseCdf {
     /// target is outside `[r(0), r(1)]`.
     pub fn invert(&self, natural: &[f64], target: f64) -> Option<f64> {
         let s = self.component.sampled();
-        let mut x = natural.to_vec();
+        let dim = self.component.dim();
+        let mut x = [0.0; 3];
+        x[..dim].copy_from_slice(&natural[..dim]);
         let (mut lo, mut hi) = (0.0_f64, 1.0_f64);
         if !(0.0..=self.component.range()).contains(&target) {
             return None;
@@ -174,7 +186,7 @@ impl InverseCdf {
         let mut u = target / self.component.range();
         for _ in 0..100 {
             x[s] = u;
-            let (r, d) = self.eval_with_derivative(&x);
+            let (r, d) = self.eval_with_derivative(&x[..dim]);
             let f = r - target;
             if f.abs() <= 4.0 * f64::EPSILON * self.component.range() {
                 return Some(u);

@@ -194,6 +194,11 @@ pub(crate) const STACK_DIMS: usize = 4;
 /// keeps on the stack.
 pub(crate) const STACK_TABLE: usize = 512;
 
+/// Univariate values [`Basis::combine_with_partial`] keeps on the stack:
+/// smaller than `STACK_TABLE`, since the two tables are cleared on every
+/// call of a per-sample path (inverse CDFs have low degrees).
+pub(crate) const PARTIAL_TABLE: usize = 128;
+
 /// Most functions a basis may have (a fit file declaring more is refused
 /// before anything is allocated).
 pub const MAX_BASIS_LEN: usize = 100_000;
@@ -543,8 +548,59 @@ impl Basis {
 
     /// `(sum a_j phi_j, sum b_j phi_j, sum a_j d phi_j/d x_k, sum b_j d phi_j/d x_k)`
     /// at `x` in one pass, with no per-function storage: the value and one
-    /// partial derivative of a rational function `p / q`.
+    /// partial derivative of a rational function `p / q`. Inverse CDFs call
+    /// this for every sample, so it allocates nothing for up to
+    /// `STACK_DIMS` coordinates and `PARTIAL_TABLE` univariate values.
     pub fn combine_with_partial(&self, x: &[f64], k: usize, a: &[f64], b: &[f64]) -> [f64; 4] {
+        let d = self.dim();
+        let total: usize = self.max_degree.iter().map(|m| m + 1).sum();
+        if d > STACK_DIMS || total > PARTIAL_TABLE {
+            return self.combine_with_partial_heap(x, k, a, b);
+        }
+        // Univariate values of every coordinate one after the other, and
+        // the derivatives of coordinate k alone.
+        let mut flat = [0.0; PARTIAL_TABLE];
+        let mut deriv = [0.0; PARTIAL_TABLE];
+        let mut offsets = [0usize; STACK_DIMS];
+        let mut start = 0;
+        for l in 0..d {
+            let len = self.max_degree[l] + 1;
+            offsets[l] = start;
+            let t = self.domain.map(l, x[l]);
+            let dv = (l == k).then_some(&mut deriv[..len]);
+            self.family.values(t, &mut flat[start..start + len], dv);
+            start += len;
+        }
+        let scale = self.domain.scale(k);
+        let mut out = [0.0; 4];
+        for (j, idx) in self.indices.iter().enumerate() {
+            let (ca, cb) = (
+                a.get(j).copied().unwrap_or(0.0),
+                b.get(j).copied().unwrap_or(0.0),
+            );
+            if ca == 0.0 && cb == 0.0 {
+                continue;
+            }
+            let mut others = 1.0;
+            for l in 0..d {
+                if l != k {
+                    others *= flat[offsets[l] + idx[l] as usize];
+                }
+            }
+            let e = idx[k] as usize;
+            let v = others * flat[offsets[k] + e];
+            let g = others * deriv[e] * scale;
+            out[0] += ca * v;
+            out[1] += cb * v;
+            out[2] += ca * g;
+            out[3] += cb * g;
+        }
+        out
+    }
+
+    /// [`Basis::combine_with_partial`] with heap tables (many coordinates or
+    /// high degrees).
+    fn combine_with_partial_heap(&self, x: &[f64], k: usize, a: &[f64], b: &[f64]) -> [f64; 4] {
         let d = self.dim();
         let t: Vec<f64> = (0..d).map(|i| self.domain.map(i, x[i])).collect();
         let (tab, dtab) = self.tables(&t, true);
@@ -737,6 +793,38 @@ mod tests {
         for bad in [vec![1], vec![0, 1], vec![1, MAX_DEGREE_WEIGHT + 1]] {
             let err = Basis::weighted(BasisFamily::Chebyshev, d.clone(), 4, &bad).unwrap_err();
             assert!(err.to_string().contains("weight"), "{err}");
+        }
+    }
+
+    #[test]
+    fn value_and_partial_agree_on_the_stack_and_the_heap() {
+        for family in [
+            BasisFamily::Monomial,
+            BasisFamily::Chebyshev,
+            BasisFamily::Legendre,
+        ] {
+            for dim in [2usize, 3] {
+                let domain = Domain {
+                    lower: vec![0.0; dim],
+                    upper: vec![2.0; dim],
+                };
+                let b = Basis::new(family, domain, 40).unwrap();
+                let a: Vec<f64> = (0..b.len())
+                    .map(|j| ((j * 7 % 11) as f64 - 5.0) / 3.0)
+                    .collect();
+                let c: Vec<f64> = (0..b.len()).map(|j| 1.0 / (1.0 + j as f64)).collect();
+                let x: Vec<f64> = (0..dim).map(|k| 0.3 + 0.4 * k as f64).collect();
+                for k in 0..dim {
+                    let fast = b.combine_with_partial(&x, k, &a, &c);
+                    let slow = b.combine_with_partial_heap(&x, k, &a, &c);
+                    for (u, v) in fast.iter().zip(&slow) {
+                        assert!(
+                            (u - v).abs() <= 1e-12 * (1.0 + v.abs()),
+                            "{fast:?} {slow:?}"
+                        );
+                    }
+                }
+            }
         }
     }
 
