@@ -345,7 +345,7 @@ fn measure(judge: &Judge, c: Candidate) -> Result<Row> {
         note,
     };
     println!(
-        "  {:<34} {:>6} B  fit {:>7.2} s  dE lights {:>6.3} (p99 {:>6.2})  sky {:>6.3} (p99 {:>6.2})  median rel <80 {:>6.3}  peak x{:<6.2} {}",
+        "  {:<46} {:>6} B  fit {:>7.2} s  dE lights {:>6.3} (p99 {:>6.2})  sky {:>6.3} (p99 {:>6.2})  median rel <80 {:>6.3}  peak x{:<6.2} {}",
         row.representation,
         row.bytes,
         row.fit_s,
@@ -550,7 +550,7 @@ fn measure_material(judge: &Judge) -> Result<Vec<Row>> {
                 )?;
                 material_rows.push(row);
             }
-            Err(e) => println!("  {name:<34} no fit: {e:#}"),
+            Err(e) => println!("  {name:<46} no fit: {e:#}"),
         }
     }
     // The analytic peer.
