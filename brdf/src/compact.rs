@@ -385,69 +385,9 @@ impl CompactBrdf {
         };
         let mut channels = Vec::with_capacity(nch);
         for _ in 0..nch {
-            let head = b
-                .get(pos..pos + 5)
-                .ok_or_else(|| bad("truncated channel header"))?;
-            let family = match head[0] {
-                0 => BasisFamily::Monomial,
-                1 => BasisFamily::Chebyshev,
-                2 => BasisFamily::Legendre,
-                _ => return Err(bad("unknown basis family code")),
-            };
-            let n_p = u16::from_le_bytes([head[1], head[2]]) as usize;
-            let n_q = u16::from_le_bytes([head[3], head[4]]) as usize;
-            if n_p == 0 || n_q == 0 {
-                return Err(bad(
-                    "a channel with no numerator or denominator coefficient",
-                ));
-            }
-            pos += 5;
-            let weights: Vec<u16> = if weighted {
-                let w = b
-                    .get(pos..pos + dims)
-                    .ok_or_else(|| bad("truncated degree weights"))?;
-                pos += dims;
-                w.iter().map(|&w| u16::from(w)).collect()
-            } else {
-                vec![1; dims]
-            };
-            if weights
-                .iter()
-                .any(|&w| !(1..=rational_core::MAX_DEGREE_WEIGHT).contains(&w))
-            {
-                return Err(bad("degree weight out of range"));
-            }
-            let count = 2 * dims + n_p + n_q;
-            let raw = b
-                .get(pos..pos + 4 * count)
-                .ok_or_else(|| bad("truncated coefficients"))?;
-            pos += 4 * count;
-            let v: Vec<f32> = raw
-                .chunks_exact(4)
-                .map(|c| f32::from_le_bytes(c.try_into().expect("4")))
-                .collect();
-            if v.iter().any(|x| !x.is_finite()) {
-                return Err(bad("a domain bound or coefficient is not finite"));
-            }
-            if let Some(c) = v[2 * dims..].iter().find(|c| c.abs() > MAX_COEFFICIENT) {
-                return Err(bad(&format!(
-                    "coefficient {c:e} is beyond {MAX_COEFFICIENT:e} in magnitude (f32 sums of such terms overflow; no fit has them)"
-                )));
-            }
-            if (0..dims).any(|k| v[k] >= v[dims + k]) {
-                return Err(bad("an empty domain (lower bound not below upper)"));
-            }
-            let indices = rational_core::weighted_graded_indices(&weights, n_p.max(n_q));
-            channels.push(CompactChannel {
-                degrees: CompactChannel::degrees_of(&indices, dims),
-                family,
-                lower: v[..dims].to_vec(),
-                upper: v[dims..2 * dims].to_vec(),
-                weights,
-                indices,
-                num: v[2 * dims..2 * dims + n_p].to_vec(),
-                den: v[2 * dims + n_p..].to_vec(),
-            });
+            let (channel, next) = read_channel(b, pos, dims, weighted).map_err(|r| bad(&r))?;
+            channels.push(channel);
+            pos = next;
         }
         if pos != b.len() {
             return Err(bad("trailing bytes"));
@@ -462,6 +402,74 @@ impl CompactBrdf {
             channels,
         })
     }
+}
+
+/// One channel of the compact binary at `pos`: the channel and the position
+/// after it, or what is wrong.
+fn read_channel(
+    b: &[u8],
+    mut pos: usize,
+    dims: usize,
+    weighted: bool,
+) -> Result<(CompactChannel, usize), String> {
+    let head = b.get(pos..pos + 5).ok_or("truncated channel header")?;
+    let family = match head[0] {
+        0 => BasisFamily::Monomial,
+        1 => BasisFamily::Chebyshev,
+        2 => BasisFamily::Legendre,
+        _ => return Err("unknown basis family code".into()),
+    };
+    let n_p = u16::from_le_bytes([head[1], head[2]]) as usize;
+    let n_q = u16::from_le_bytes([head[3], head[4]]) as usize;
+    if n_p == 0 || n_q == 0 {
+        return Err("a channel with no numerator or denominator coefficient".into());
+    }
+    pos += 5;
+    let weights: Vec<u16> = if weighted {
+        let w = b.get(pos..pos + dims).ok_or("truncated degree weights")?;
+        pos += dims;
+        w.iter().map(|&w| u16::from(w)).collect()
+    } else {
+        vec![1; dims]
+    };
+    if weights
+        .iter()
+        .any(|&w| !(1..=rational_core::MAX_DEGREE_WEIGHT).contains(&w))
+    {
+        return Err("degree weight out of range".into());
+    }
+    let count = 2 * dims + n_p + n_q;
+    let raw = b
+        .get(pos..pos + 4 * count)
+        .ok_or("truncated coefficients")?;
+    pos += 4 * count;
+    let v: Vec<f32> = raw
+        .chunks_exact(4)
+        .map(|c| f32::from_le_bytes(c.try_into().expect("4")))
+        .collect();
+    if v.iter().any(|x| !x.is_finite()) {
+        return Err("a domain bound or coefficient is not finite".into());
+    }
+    if let Some(c) = v[2 * dims..].iter().find(|c| c.abs() > MAX_COEFFICIENT) {
+        return Err(format!(
+            "coefficient {c:e} is beyond {MAX_COEFFICIENT:e} in magnitude (f32 sums of such terms overflow; no fit has them)"
+        ));
+    }
+    if (0..dims).any(|k| v[k] >= v[dims + k]) {
+        return Err("an empty domain (lower bound not below upper)".into());
+    }
+    let indices = rational_core::weighted_graded_indices(&weights, n_p.max(n_q));
+    let channel = CompactChannel {
+        degrees: CompactChannel::degrees_of(&indices, dims),
+        family,
+        lower: v[..dims].to_vec(),
+        upper: v[dims..2 * dims].to_vec(),
+        weights,
+        indices,
+        num: v[2 * dims..2 * dims + n_p].to_vec(),
+        den: v[2 * dims + n_p..].to_vec(),
+    };
+    Ok((channel, pos))
 }
 
 /// [`crate::clamp_elevation`] in f32, as the shaders compute it.

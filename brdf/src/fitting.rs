@@ -681,6 +681,64 @@ fn divided_by(
     IntervalData::new(data.dim(), data.points().to_vec(), lo, hi)?.with_values(values)
 }
 
+/// Errors of a channel's fit (times its lobe) on the samples it was fitted to.
+struct SampleErrors {
+    above_floor: usize,
+    floor_abs: f64,
+    max_rel: f64,
+    mean_rel: f64,
+    rmse: f64,
+    cos_rmse: f64,
+}
+
+impl SampleErrors {
+    /// `fitted(k)` is the fit's value at the `k`-th used sample;
+    /// `measured_lo` the lower ends of the measured intervals.
+    fn of(
+        samples: &Samples,
+        c: usize,
+        used: &[usize],
+        rel_tol: f64,
+        measured_lo: &[f64],
+        fitted: impl Fn(usize) -> f64,
+    ) -> Self {
+        let (mut wsum, mut wsq, mut sq) = (0.0_f64, 0.0_f64, 0.0_f64);
+        // Relative errors over the samples whose interval is relative
+        // (above the noise floor); below it the bound is absolute.
+        let (mut max_rel, mut sum_rel, mut n_rel) = (0.0_f64, 0.0, 0usize);
+        let mut floor_abs = 0.0_f64;
+        for (k, &i) in used.iter().enumerate() {
+            let row = &samples.rows[i];
+            let v = row.value[c];
+            let e = fitted(k) - v;
+            sq += e * e;
+            wsum += row.cos_weight;
+            wsq += row.cos_weight * e * e;
+            let relative_bound = rel_tol * row.lo[c].min(v);
+            if v <= 0.0 || v - measured_lo[k] > relative_bound * (1.0 + 1e-12) {
+                floor_abs = floor_abs.max(v - measured_lo[k]);
+            } else {
+                max_rel = max_rel.max((e / v).abs());
+                sum_rel += (e / v).abs();
+                n_rel += 1;
+            }
+        }
+        Self {
+            above_floor: n_rel,
+            floor_abs,
+            max_rel,
+            mean_rel: if n_rel > 0 {
+                sum_rel / n_rel as f64
+            } else {
+                0.0
+            },
+            // Of the product with the lobe (the engine's RMSE is of the ratio).
+            rmse: (sq / used.len().max(1) as f64).sqrt(),
+            cos_rmse: if wsum > 0.0 { (wsq / wsum).sqrt() } else { 0.0 },
+        }
+    }
+}
+
 fn fit_channel(
     samples: &Samples,
     c: usize,
@@ -737,28 +795,9 @@ fn fit_channel(
         }
     }
     let f = report.function.clone();
-    let (mut wsum, mut wsq, mut sq) = (0.0_f64, 0.0_f64, 0.0_f64);
-    // Relative errors over the samples whose interval is relative (above the
-    // noise floor); below it the bound is absolute.
-    let (mut max_rel, mut sum_rel, mut n_rel) = (0.0_f64, 0.0, 0usize);
-    let mut floor_abs = 0.0_f64;
-    for (k, &i) in used.iter().enumerate() {
-        let row = &samples.rows[i];
-        let v = row.value[c];
-        let fv = f.eval(data.point(k)) * factors[k];
-        let e = fv - v;
-        sq += e * e;
-        wsum += row.cos_weight;
-        wsq += row.cos_weight * e * e;
-        let relative_bound = rel_tol * row.lo[c].min(v);
-        if v <= 0.0 || v - measured_lo[k] > relative_bound * (1.0 + 1e-12) {
-            floor_abs = floor_abs.max(v - measured_lo[k]);
-        } else {
-            max_rel = max_rel.max((e / v).abs());
-            sum_rel += (e / v).abs();
-            n_rel += 1;
-        }
-    }
+    let errors = SampleErrors::of(samples, c, &used, rel_tol, &measured_lo, |k| {
+        f.eval(data.point(k)) * factors[k]
+    });
     let rep = ChannelReport {
         channel,
         n_p: report.n_p,
@@ -767,19 +806,14 @@ fn fit_channel(
         verified: report.verification.satisfied,
         depth: report.depth,
         samples: data.len(),
-        samples_above_floor: n_rel,
-        noise_floor_abs: floor_abs,
-        max_rel,
-        mean_rel: if n_rel > 0 {
-            sum_rel / n_rel as f64
-        } else {
-            0.0
-        },
+        samples_above_floor: errors.above_floor,
+        noise_floor_abs: errors.floor_abs,
+        max_rel: errors.max_rel,
+        mean_rel: errors.mean_rel,
         max_rel_all: 0.0,
         mean_rel_all: 0.0,
-        // Of the product with the lobe (the engine's RMSE is of the ratio).
-        rmse: (sq / used.len().max(1) as f64).sqrt(),
-        cos_rmse: if wsum > 0.0 { (wsq / wsum).sqrt() } else { 0.0 },
+        rmse: errors.rmse,
+        cos_rmse: errors.cos_rmse,
         seconds: report.seconds,
         interval_scale: report.interval_scale,
         bounds,
