@@ -695,3 +695,19 @@ fn batch_resumes_shards_and_refuses_bad_manifests() {
     }
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// `--lobe` needs a table to fit the lobe to: other formats are refused
+/// by name before anything is read.
+#[test]
+fn lobe_is_refused_for_scattered_and_alta_data() {
+    for format in ["cornell", "alta"] {
+        let out = ratfit()
+            .args(["fit", "nowhere.txt", "--format", format, "--lobe", "-o"])
+            .arg(std::env::temp_dir().join("ratfit-lobe-refused.json"))
+            .output()
+            .unwrap();
+        assert!(!out.status.success());
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains("--lobe"), "{format}: {err}");
+    }
+}
