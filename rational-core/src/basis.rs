@@ -571,31 +571,7 @@ impl Basis {
             self.family.values(t, &mut flat[start..start + len], dv);
             start += len;
         }
-        let scale = self.domain.scale(k);
-        let mut out = [0.0; 4];
-        for (j, idx) in self.indices.iter().enumerate() {
-            let (ca, cb) = (
-                a.get(j).copied().unwrap_or(0.0),
-                b.get(j).copied().unwrap_or(0.0),
-            );
-            if ca == 0.0 && cb == 0.0 {
-                continue;
-            }
-            let mut others = 1.0;
-            for l in 0..d {
-                if l != k {
-                    others *= flat[offsets[l] + idx[l] as usize];
-                }
-            }
-            let e = idx[k] as usize;
-            let v = others * flat[offsets[k] + e];
-            let g = others * deriv[e] * scale;
-            out[0] += ca * v;
-            out[1] += cb * v;
-            out[2] += ca * g;
-            out[3] += cb * g;
-        }
-        out
+        self.accumulate_partial(k, a, b, |l, e| flat[offsets[l] + e], |e| deriv[e])
     }
 
     /// [`Basis::combine_with_partial`] with heap tables (many coordinates or
@@ -604,6 +580,21 @@ impl Basis {
         let d = self.dim();
         let t: Vec<f64> = (0..d).map(|i| self.domain.map(i, x[i])).collect();
         let (tab, dtab) = self.tables(&t, true);
+        self.accumulate_partial(k, a, b, |l, e| tab[l][e], |e| dtab[k][e])
+    }
+
+    /// The sums of [`Basis::combine_with_partial`] from univariate tables:
+    /// `value(l, e)` is `phi_e` of coordinate `l`, `deriv(e)` its derivative
+    /// in coordinate `k` (on `[-1, 1]`).
+    fn accumulate_partial(
+        &self,
+        k: usize,
+        a: &[f64],
+        b: &[f64],
+        value: impl Fn(usize, usize) -> f64,
+        deriv: impl Fn(usize) -> f64,
+    ) -> [f64; 4] {
+        let d = self.dim();
         let scale = self.domain.scale(k);
         let mut out = [0.0; 4];
         for (j, idx) in self.indices.iter().enumerate() {
@@ -617,11 +608,12 @@ impl Basis {
             let mut others = 1.0;
             for l in 0..d {
                 if l != k {
-                    others *= tab[l][idx[l] as usize];
+                    others *= value(l, idx[l] as usize);
                 }
             }
-            let v = others * tab[k][idx[k] as usize];
-            let g = others * dtab[k][idx[k] as usize] * scale;
+            let e = idx[k] as usize;
+            let v = others * value(k, e);
+            let g = others * deriv(e) * scale;
             out[0] += ca * v;
             out[1] += cb * v;
             out[2] += ca * g;
