@@ -514,6 +514,77 @@ pub fn fit_samples(
     settings: &BrdfFitSettings,
 ) -> Result<(FittedBrdf, BrdfFitReport), BrdfError> {
     let start = Instant::now();
+    let derived = in_fitted_mode(samples, settings)?;
+    let samples = derived.as_ref().unwrap_or(samples);
+    let results: Vec<Result<(RationalFunction, ChannelReport), BrdfError>> = (0..3)
+        .into_par_iter()
+        .map(|c| fit_channel(samples, c, settings))
+        .collect();
+    let parts = results.into_iter().collect::<Result<Vec<_>, _>>()?;
+    let (fitted, mut report) = assemble(samples, name, settings, parts);
+    report.seconds = start.elapsed().as_secs_f64();
+    Ok((fitted, report))
+}
+
+/// Fits one of the three functions of [`fit_samples`] (`channel` 0, 1 or 2
+/// of the settings' colour mode) alone, so that the channels of a material
+/// can run as separate tasks of a distributed engine;
+/// [`assemble_channels`] joins them.
+///
+/// # Errors
+/// As [`fit_brdf`], or a channel outside 0..3.
+pub fn fit_samples_channel(
+    samples: &Samples,
+    channel: usize,
+    settings: &BrdfFitSettings,
+) -> Result<(RationalFunction, ChannelReport), BrdfError> {
+    if channel > 2 {
+        return Err(BrdfError::Invalid {
+            name: "channel",
+            reason: format!("{channel} is not 0, 1 or 2"),
+        });
+    }
+    let derived = in_fitted_mode(samples, settings)?;
+    fit_channel(derived.as_ref().unwrap_or(samples), channel, settings)
+}
+
+/// Joins three channels fitted by [`fit_samples_channel`] with the same
+/// samples and settings into the fit and report [`fit_samples`] returns.
+///
+/// # Errors
+/// Not three channels, or functions that do not take the reduction's
+/// coordinates.
+pub fn assemble_channels(
+    samples: &Samples,
+    name: &str,
+    settings: &BrdfFitSettings,
+    parts: Vec<(RationalFunction, ChannelReport)>,
+) -> Result<(FittedBrdf, BrdfFitReport), BrdfError> {
+    let derived = in_fitted_mode(samples, settings)?;
+    if parts.len() != 3 {
+        return Err(BrdfError::Invalid {
+            name: "channels",
+            reason: format!("{} channels given, a material has 3", parts.len()),
+        });
+    }
+    if let Some((f, _)) = parts.iter().find(|(f, _)| f.dim() != samples.dims) {
+        return Err(BrdfError::Invalid {
+            name: "channels",
+            reason: format!("a {}-D function for {}-D samples", f.dim(), samples.dims),
+        });
+    }
+    let seconds = parts.iter().map(|(_, r)| r.seconds).fold(0.0, f64::max);
+    let (fitted, mut report) = assemble(derived.as_ref().unwrap_or(samples), name, settings, parts);
+    report.seconds = seconds;
+    Ok((fitted, report))
+}
+
+/// The samples in the settings' colour mode (`None`: they are already), after
+/// checking their dimension against the reduction's.
+fn in_fitted_mode(
+    samples: &Samples,
+    settings: &BrdfFitSettings,
+) -> Result<Option<Samples>, BrdfError> {
     if samples.dims != settings.reduction.dims() {
         return Err(BrdfError::Invalid {
             name: "samples",
@@ -524,24 +595,18 @@ pub fn fit_samples(
             ),
         });
     }
-    let derived;
-    let samples = if settings.mode.is_rgb() {
-        samples
-    } else {
-        derived = samples.in_colour_mode(settings.mode);
-        &derived
-    };
-    let results: Vec<Result<(RationalFunction, ChannelReport), BrdfError>> = (0..3)
-        .into_par_iter()
-        .map(|c| fit_channel(samples, c, settings))
-        .collect();
-    let mut channels = Vec::with_capacity(3);
-    let mut reports = Vec::with_capacity(3);
-    for r in results {
-        let (f, rep) = r?;
-        channels.push(f);
-        reports.push(rep);
-    }
+    Ok((!settings.mode.is_rgb()).then(|| samples.in_colour_mode(settings.mode)))
+}
+
+/// The fit and its report from three fitted channels, with the errors over
+/// every sample (`samples` in the settings' colour mode).
+fn assemble(
+    samples: &Samples,
+    name: &str,
+    settings: &BrdfFitSettings,
+    parts: Vec<(RationalFunction, ChannelReport)>,
+) -> (FittedBrdf, BrdfFitReport) {
+    let (channels, mut reports): (Vec<_>, Vec<_>) = parts.into_iter().unzip();
     let fitted = FittedBrdf {
         reduction: settings.reduction,
         channels,
@@ -591,9 +656,9 @@ pub fn fit_samples(
             .unwrap_or_default(),
         lobe: settings.lobe,
         channels: reports,
-        seconds: start.elapsed().as_secs_f64(),
+        seconds: 0.0,
     };
-    Ok((fitted, report))
+    (fitted, report)
 }
 
 /// Rounds of the dense cap check of perceptual fits.

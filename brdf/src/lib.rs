@@ -49,7 +49,8 @@ pub use design::{estimate_noise, ChannelBounds, NoiseEstimate, PerceptualBounds}
 pub use downsample::DownsampledTable;
 pub use error::{write_atomic, BrdfError};
 pub use fitting::{
-    fit_brdf, fit_samples, BrdfFitReport, BrdfFitSettings, ChannelReport, FittedBrdf,
+    assemble_channels, fit_brdf, fit_samples, fit_samples_channel, BrdfFitReport, BrdfFitSettings,
+    ChannelReport, FittedBrdf,
 };
 pub use geometry::{
     clamp_elevation, cross, dot, from_spherical, normalize, rotate, to_spherical, HalfDiff, Vec3,

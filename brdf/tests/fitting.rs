@@ -113,3 +113,30 @@ fn bad_settings_are_refused() {
     assert!(BrdfFitSettings::default().with_rel_tol(1.5).is_err());
     assert!(BrdfFitSettings::default().with_rel_tol(f64::NAN).is_err());
 }
+
+#[test]
+fn channels_fitted_apart_assemble_into_the_joint_fit() {
+    let m = CookTorranceGgx {
+        kd: [0.05, 0.1, 0.3],
+        f0: [0.04; 3],
+        alpha: 0.2,
+    };
+    let s = settings(Reduction::default().with_resolution(24, 24))
+        .with_colour_mode(brdf::ColourMode::LuminanceChroma);
+    let samples = s.reduction().sample(&m);
+    let (joint, joint_report) = brdf::fit_samples(&samples, "ggx", &s).unwrap();
+    let parts: Vec<_> = (0..3)
+        .map(|c| brdf::fit_samples_channel(&samples, c, &s).unwrap())
+        .collect();
+    let (apart, apart_report) = brdf::assemble_channels(&samples, "ggx", &s, parts).unwrap();
+    assert_eq!(apart, joint);
+    for (a, j) in apart_report.channels.iter().zip(&joint_report.channels) {
+        assert_eq!((a.n_p, a.n_q, a.max_rel_all), (j.n_p, j.n_q, j.max_rel_all));
+    }
+    assert!(brdf::fit_samples_channel(&samples, 3, &s).is_err());
+    let two: Vec<_> = (0..2)
+        .map(|c| brdf::fit_samples_channel(&samples, c, &s).unwrap())
+        .collect();
+    let err = brdf::assemble_channels(&samples, "ggx", &s, two).unwrap_err();
+    assert!(err.to_string().contains("2 channels"), "{err}");
+}

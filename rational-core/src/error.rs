@@ -48,15 +48,25 @@ pub enum FitError {
     /// No split of any budget up to the maximum was feasible.
     #[error(
         "no feasible rational fit with at most {max_coeffs} coefficients \
-         (intervals widened {widenings} times by x{factor}); raise --max-coeffs or widen the intervals"
+         ({} splits tried, intervals widened {widenings} times by x{factor}); \
+         raise --max-coeffs or widen the intervals",
+        splits.len()
     )]
     NoFeasibleFit {
+        /// Every split solved, in order, with why it was refused.
+        splits: Vec<crate::SplitSummary>,
         /// Largest budget tried.
         max_coeffs: usize,
         /// Widenings tried.
         widenings: usize,
         /// Widening factor.
         factor: f64,
+    },
+    /// The sweep was stopped through [`crate::FitSettings::with_cancel`].
+    #[error("the fit was cancelled after {splits_tried} splits")]
+    Cancelled {
+        /// Splits solved before the flag was seen.
+        splits_tried: usize,
     },
     /// The solver layer refused (bad problem, backend not compiled, ...).
     #[error(transparent)]

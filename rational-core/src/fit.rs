@@ -44,6 +44,8 @@ struct Prepared<'a> {
     scale: f64,
     /// Storage of solved problems' `G`, reused by the next ones.
     spare: Mutex<Vec<Vec<f64>>>,
+    /// Splits started, reported when the sweep is cancelled.
+    solved: AtomicUsize,
 }
 
 /// A problem whose `G` storage goes back to [`Prepared::spare`] when dropped.
@@ -107,6 +109,7 @@ impl<'a> Prepared<'a> {
             extra,
             scale,
             spare: Mutex::new(Vec::new()),
+            solved: AtomicUsize::new(0),
         })
     }
 
@@ -168,6 +171,14 @@ impl<'a> Prepared<'a> {
         n_q: usize,
         want_condition: bool,
     ) -> Result<SplitFit, FitError> {
+        if let Some(flag) = &self.settings.cancel {
+            if flag.load(Ordering::Relaxed) {
+                return Err(FitError::Cancelled {
+                    splits_tried: self.solved.load(Ordering::Relaxed),
+                });
+            }
+        }
+        self.solved.fetch_add(1, Ordering::Relaxed);
         let start = Instant::now();
         let mut rows = self.base_rows(n_p, n_q);
         let split_basis = self.basis.with_len(n_p.max(n_q))?;
@@ -422,6 +433,7 @@ pub fn fit_with_constraints(
         }
     }
     Err(FitError::NoFeasibleFit {
+        splits: summaries,
         max_coeffs: max_n,
         widenings: settings.max_widenings,
         factor: settings.widen_factor,

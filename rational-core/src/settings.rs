@@ -3,6 +3,7 @@
 use crate::{BasisFamily, Domain, FitError, PoleControl};
 use qp_backends::{Backend, SolveOptions};
 use serde::{Deserialize, Serialize};
+use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 
 /// How the sweep picks among the feasible splits of one budget.
@@ -100,6 +101,7 @@ pub struct FitSettings {
     pub(crate) pole_control: PoleControl,
     pub(crate) value_scaling: bool,
     pub(crate) progress: Option<ProgressFn>,
+    pub(crate) cancel: Option<Arc<AtomicBool>>,
 }
 
 impl std::fmt::Debug for FitSettings {
@@ -117,6 +119,7 @@ impl std::fmt::Debug for FitSettings {
             .field("max_widenings", &self.max_widenings)
             .field("pole_control", &self.pole_control)
             .field("value_scaling", &self.value_scaling)
+            .field("cancellable", &self.cancel.is_some())
             .finish_non_exhaustive()
     }
 }
@@ -141,6 +144,7 @@ impl Default for FitSettings {
             pole_control: PoleControl::default(),
             value_scaling: true,
             progress: None,
+            cancel: None,
         }
     }
 }
@@ -271,6 +275,15 @@ impl FitSettings {
     /// Progress callback (called from worker threads).
     pub fn with_progress(mut self, f: ProgressFn) -> Self {
         self.progress = Some(f);
+        self
+    }
+
+    /// A flag that stops the sweep: once set, no further split is solved and
+    /// the fit returns [`FitError::Cancelled`] (a split already being solved
+    /// finishes first). Lets a caller interrupt a long fit (Ctrl-C in an
+    /// interactive session, a deadline in a server).
+    pub fn with_cancel(mut self, flag: Arc<AtomicBool>) -> Self {
+        self.cancel = Some(flag);
         self
     }
 

@@ -21,8 +21,15 @@ pub struct Verification {
     pub min_q: f64,
     /// Smallest `q` over the largest `|q|` at the samples.
     pub min_q_ratio: f64,
-    /// Smallest normalised margin of the extra rows (`+inf` without any).
+    /// Smallest normalised margin of the extra rows (`+inf` without any;
+    /// JSON has no infinity, so it is written as `null` and read back).
+    #[serde(deserialize_with = "infinity_if_null")]
     pub extra_min_margin: f64,
+}
+
+/// `null` (how `serde_json` writes an infinite float) as `+inf`.
+fn infinity_if_null<'de, D: serde::Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    Ok(Option::<f64>::deserialize(d)?.unwrap_or(f64::INFINITY))
 }
 
 /// Error figures of a fit against the measured values.

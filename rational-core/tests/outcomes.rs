@@ -39,8 +39,38 @@ fn conflicting_duplicates_are_infeasible() {
     .unwrap();
     let s = FitSettings::default().with_coeff_range(2, 4).unwrap();
     match fit(&d, &s) {
-        Err(FitError::NoFeasibleFit { max_coeffs: 4, .. }) => {}
+        Err(FitError::NoFeasibleFit {
+            max_coeffs: 4,
+            splits,
+            ..
+        }) => {
+            // Budgets 2, 3 and 4: 1 + 2 + 3 splits, none accepted, each with
+            // its reason.
+            assert_eq!(splits.len(), 6);
+            assert!(splits.iter().all(|s| !s.accepted));
+        }
         other => panic!("expected NoFeasibleFit, got {other:?}"),
+    }
+}
+
+#[test]
+fn a_set_cancel_flag_stops_the_sweep() {
+    use std::sync::atomic::{AtomicBool, Ordering};
+    use std::sync::Arc;
+    let x = line(200);
+    let v: Vec<f64> = x.iter().map(|x| (8.0 * x).sin() + 2.0).collect();
+    let d = IntervalData::from_values_relative(1, x, v, 1e-6).unwrap();
+    let flag = Arc::new(AtomicBool::new(false));
+    let s = FitSettings::default().with_cancel(flag.clone());
+    // Unset, the flag changes nothing.
+    let small = IntervalData::from_values_relative(1, line(50), vec![1.0; 50], 0.1).unwrap();
+    assert!(fit(&small, &s).is_ok());
+    flag.store(true, Ordering::Relaxed);
+    match fit(&d, &s) {
+        Err(e @ FitError::Cancelled { splits_tried: 0 }) => {
+            assert!(e.to_string().contains("cancelled"), "{e}");
+        }
+        other => panic!("expected Cancelled, got {other:?}"),
     }
 }
 
@@ -149,4 +179,20 @@ fn dense_grid_removes_a_pole_between_samples() {
             );
         }
     }
+}
+
+#[test]
+fn a_report_round_trips_through_json() {
+    // What `ratfit fit-csv` writes must read back: no extra rows leave the
+    // margin infinite, which JSON writes as null.
+    let x = line(100);
+    let v: Vec<f64> = x.iter().map(|x| 1.0 / (1.0 + 25.0 * x * x)).collect();
+    let d = IntervalData::from_values_relative(1, x, v, 0.01).unwrap();
+    let report = fit(&d, &FitSettings::default()).unwrap();
+    assert!(report.verification.extra_min_margin.is_infinite());
+    let json = serde_json::to_string(&report).unwrap();
+    let back: rational_core::FitReport = serde_json::from_str(&json).unwrap();
+    assert_eq!(back.function, report.function);
+    assert_eq!(back.verification, report.verification);
+    assert_eq!(back.splits, report.splits);
 }
