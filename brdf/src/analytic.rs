@@ -74,7 +74,8 @@ pub struct CookTorranceGgx {
     pub alpha: f64,
 }
 
-fn ggx_d(cos_h: f64, a2: f64) -> f64 {
+/// The GGX normal distribution at `cos theta_h`, `a2 = alpha^2`.
+pub(crate) fn ggx_d(cos_h: f64, a2: f64) -> f64 {
     let c2 = cos_h * cos_h;
     let t = c2 * (a2 - 1.0) + 1.0;
     a2 / (PI * t * t)
@@ -82,6 +83,12 @@ fn ggx_d(cos_h: f64, a2: f64) -> f64 {
 
 fn smith_g1(cos: f64, a2: f64) -> f64 {
     2.0 * cos / (cos + (a2 + (1.0 - a2) * cos * cos).sqrt())
+}
+
+/// The GGX Smith term over the cosine, `G1(cos) / cos`, in closed form:
+/// finite and positive at grazing, where `G1 / cos` is 0 / 0.
+pub(crate) fn smith_g1_over_cos(cos: f64, a2: f64) -> f64 {
+    2.0 / (cos + (a2 + (1.0 - a2) * cos * cos).sqrt())
 }
 
 impl Brdf for CookTorranceGgx {

@@ -109,14 +109,8 @@ impl Lobe {
     pub fn rgb(&self, wi: Vec3, wo: Vec3) -> [f64; 3] {
         let h = normalize([wi[0] + wo[0], wi[1] + wo[1], wi[2] + wo[2]]);
         let a2 = self.alpha * self.alpha;
-        let c2 = h[2] * h[2];
-        let t = c2 * (a2 - 1.0) + 1.0;
-        let d = a2 / (std::f64::consts::PI * t * t);
-        let g = |c: f64| {
-            let c = c.max(0.0);
-            2.0 / (c + (a2 + (1.0 - a2) * c * c).sqrt())
-        };
-        let spec = 0.25 * d * g(wi[2]) * g(wo[2]);
+        let g = |c: f64| crate::analytic::smith_g1_over_cos(c.max(0.0), a2);
+        let spec = 0.25 * crate::analytic::ggx_d(h[2], a2) * g(wi[2]) * g(wo[2]);
         let cos_d = dot(wi, h);
         [0, 1, 2]
             .map(|c| self.kd[c] / std::f64::consts::PI + spec * crate::schlick(self.f0[c], cos_d))
@@ -146,10 +140,10 @@ impl Lobe {
 
     /// The f32 form evaluated by [`crate::CompactBrdf`] and the shaders.
     pub fn to_f32(&self) -> LobeF32 {
-        let mode_free = |v: [f64; 3]| v.map(|x| x as f32);
+        let narrow = |v: [f64; 3]| v.map(|x| x as f32);
         LobeF32 {
-            kd_over_pi: mode_free(self.kd.map(|k| k / std::f64::consts::PI)),
-            f0: mode_free(self.f0),
+            kd_over_pi: narrow(self.kd.map(|k| k / std::f64::consts::PI)),
+            f0: narrow(self.f0),
             alpha: self.alpha as f32,
         }
     }

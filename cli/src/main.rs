@@ -288,6 +288,89 @@ fn exit_quietly_on_broken_pipe() {
     }));
 }
 
+/// `ratfit eval`: a fit at points or at direction pairs.
+fn run_eval(path: &Path, points: Option<PathBuf>, directions: Option<PathBuf>) -> Result<()> {
+    let value = brdf_cmd::read_json(path)?;
+    if let Some(fitted) = brdf_cmd::load_fitted(&value) {
+        let dirs = directions.context("a BRDF fit is evaluated at --directions")?;
+        print!(
+            "{}",
+            brdf_cmd::eval_directions(&fitted?, &csv::read_numeric(&dirs)?)?
+        );
+        return Ok(());
+    }
+    let f = load_function(&value, path)?;
+    let points = points.context("a fit-csv fit is evaluated at --points")?;
+    let rows = csv::read_numeric(&points)?;
+    if rows[0].len() != f.dim() {
+        bail!(
+            "{}: {} columns, the fit takes {} coordinates",
+            points.display(),
+            rows[0].len(),
+            f.dim()
+        );
+    }
+    let mut out = String::with_capacity(rows.len() * 24);
+    for r in &rows {
+        out.push_str(&format!("{:e}\n", f.eval(r)));
+    }
+    print!("{out}");
+    Ok(())
+}
+
+/// `ratfit export`: shader source, ALTA text or the compact binary.
+fn run_export(path: &Path, to: &str, output: Option<PathBuf>) -> Result<()> {
+    let fitted = brdf_cmd::read_fitted(path)?;
+    let compact = brdf::CompactBrdf::from_fitted(&fitted);
+    let bytes = match to {
+        "wgsl" => brdf::shader::shader_source(&compact, brdf::shader::Language::Wgsl).into_bytes(),
+        "glsl" => brdf::shader::shader_source(&compact, brdf::shader::Language::Glsl).into_bytes(),
+        "binary" => compact.to_bytes(),
+        "alta" => brdf::AltaRational::from_fitted(&fitted)?
+            .to_text(&format!("ratfit export {} --to alta", path.display()))
+            .into_bytes(),
+        other => bail!("unknown export `{other}` (wgsl, glsl, alta, binary)"),
+    };
+    match output {
+        Some(o) => {
+            crate::output::write(&o, &bytes)?;
+            eprintln!("wrote {} ({} bytes)", o.display(), bytes.len());
+        }
+        None if to == "binary" => bail!("give -o FILE for binary output"),
+        None => print!("{}", String::from_utf8_lossy(&bytes)),
+    }
+    Ok(())
+}
+
+/// `ratfit dump-qp`: G and h of one split as .npy files.
+fn run_dump_qp(data: DataArgs, basis: BasisFamily, split: &str, out: &Path) -> Result<()> {
+    let d = data.load()?;
+    let (np, nq) = split
+        .split_once(',')
+        .and_then(|(a, b)| {
+            Some((
+                a.trim().parse::<usize>().ok()?,
+                b.trim().parse::<usize>().ok()?,
+            ))
+        })
+        .with_context(|| format!("--split `{split}` is not NP,NQ"))?;
+    let settings = FitSettings::default()
+        .with_family(basis)
+        .with_pole_control(PoleControl::None)
+        .with_value_scaling(false);
+    let p = split_problem(&d, np, nq, &settings)?;
+    std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
+    npy::write_f64(&out.join("G.npy"), &[p.rows(), p.cols()], p.g())?;
+    npy::write_f64(&out.join("h.npy"), &[p.rows()], p.h())?;
+    println!(
+        "wrote {}/G.npy ({} x {}) and h.npy: minimise ||c||^2 s.t. G c >= h, c = (a[0..{np}], b[0..{nq}]), {basis} basis on the data's bounding box",
+        out.display(),
+        p.rows(),
+        p.cols()
+    );
+    Ok(())
+}
+
 fn main() -> Result<()> {
     exit_quietly_on_broken_pipe();
     match Cli::parse().command {
@@ -321,61 +404,12 @@ fn main() -> Result<()> {
             fit: path,
             points,
             directions,
-        } => {
-            let value = brdf_cmd::read_json(&path)?;
-            if let Some(fitted) = brdf_cmd::load_fitted(&value) {
-                let dirs = directions.context("a BRDF fit is evaluated at --directions")?;
-                print!(
-                    "{}",
-                    brdf_cmd::eval_directions(&fitted?, &csv::read_numeric(&dirs)?)?
-                );
-                return Ok(());
-            }
-            let f = load_function(&value, &path)?;
-            let points = points.context("a fit-csv fit is evaluated at --points")?;
-            let rows = csv::read_numeric(&points)?;
-            if rows[0].len() != f.dim() {
-                bail!(
-                    "{}: {} columns, the fit takes {} coordinates",
-                    points.display(),
-                    rows[0].len(),
-                    f.dim()
-                );
-            }
-            let mut out = String::with_capacity(rows.len() * 24);
-            for r in &rows {
-                out.push_str(&format!("{:e}\n", f.eval(r)));
-            }
-            print!("{out}");
-        }
+        } => run_eval(&path, points, directions)?,
         Command::Export {
             fit: path,
             to,
             output,
-        } => {
-            let fitted = brdf_cmd::read_fitted(&path)?;
-            let compact = brdf::CompactBrdf::from_fitted(&fitted);
-            let bytes =
-                match to.as_str() {
-                    "wgsl" => brdf::shader::shader_source(&compact, brdf::shader::Language::Wgsl)
-                        .into_bytes(),
-                    "glsl" => brdf::shader::shader_source(&compact, brdf::shader::Language::Glsl)
-                        .into_bytes(),
-                    "binary" => compact.to_bytes(),
-                    "alta" => brdf::AltaRational::from_fitted(&fitted)?
-                        .to_text(&format!("ratfit export {} --to alta", path.display()))
-                        .into_bytes(),
-                    other => bail!("unknown export `{other}` (wgsl, glsl, alta, binary)"),
-                };
-            match output {
-                Some(o) => {
-                    crate::output::write(&o, &bytes)?;
-                    eprintln!("wrote {} ({} bytes)", o.display(), bytes.len());
-                }
-                None if to == "binary" => bail!("give -o FILE for binary output"),
-                None => print!("{}", String::from_utf8_lossy(&bytes)),
-            }
-        }
+        } => run_export(&path, &to, output)?,
         Command::Plot {
             fit: path,
             material,
@@ -407,33 +441,7 @@ fn main() -> Result<()> {
             basis,
             split,
             out,
-        } => {
-            let d = data.load()?;
-            let (np, nq) = split
-                .split_once(',')
-                .and_then(|(a, b)| {
-                    Some((
-                        a.trim().parse::<usize>().ok()?,
-                        b.trim().parse::<usize>().ok()?,
-                    ))
-                })
-                .with_context(|| format!("--split `{split}` is not NP,NQ"))?;
-            let settings = FitSettings::default()
-                .with_family(basis)
-                .with_pole_control(PoleControl::None)
-                .with_value_scaling(false);
-            let p = split_problem(&d, np, nq, &settings)?;
-            std::fs::create_dir_all(&out)
-                .with_context(|| format!("cannot create {}", out.display()))?;
-            npy::write_f64(&out.join("G.npy"), &[p.rows(), p.cols()], p.g())?;
-            npy::write_f64(&out.join("h.npy"), &[p.rows()], p.h())?;
-            println!(
-                "wrote {}/G.npy ({} x {}) and h.npy: minimise ||c||^2 s.t. G c >= h, c = (a[0..{np}], b[0..{nq}]), {basis} basis on the data's bounding box",
-                out.display(),
-                p.rows(),
-                p.cols()
-            );
-        }
+        } => run_dump_qp(data, basis, &split, &out)?,
         Command::Demo { engine, out } => {
             if engine {
                 demo::run_engine()?

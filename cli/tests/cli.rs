@@ -1,5 +1,7 @@
 //! End-to-end tests of the `ratfit` binary.
 
+mod common;
+
 use std::path::PathBuf;
 use std::process::Command;
 
@@ -529,9 +531,7 @@ fn bench_rgl_fits_real_files_in_two_and_three_dimensions() {
         String::from_utf8_lossy(&out.stderr)
     );
 
-    let data = std::env::var_os("RATFIT_DATA")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/data"));
+    let data = common::data_dir();
     if !data.join("rgl").is_dir() {
         eprintln!("SKIPPED bench rgl on real files: no data folder (set RATFIT_DATA)");
         return;
@@ -598,9 +598,7 @@ fn bench_rgl_fits_real_files_in_two_and_three_dimensions() {
 /// refused before anything is fitted.
 #[test]
 fn batch_resumes_shards_and_refuses_bad_manifests() {
-    let data = std::env::var_os("RATFIT_DATA")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/data"));
+    let data = common::data_dir();
     if !data.join("rgl").is_dir() {
         eprintln!("SKIPPED batch on real files: no data folder (set RATFIT_DATA)");
         return;

@@ -1,6 +1,8 @@
 //! End-to-end tests of `ratfit render`, `ratfit compare` and
 //! `ratfit bench render`, and of the example scenes.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -232,9 +234,7 @@ fn bench_render_compares_samplers_against_a_reference() {
 
 #[test]
 fn the_example_scenes_prepare_and_render() {
-    let data = std::env::var_os("RATFIT_DATA")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/data"));
+    let data = common::data_dir();
     if !data.is_dir() {
         eprintln!("SKIPPED: the example scenes use measured data (set RATFIT_DATA)");
         return;

@@ -102,6 +102,152 @@ mod imp {
         (0..n).map(|_| (dir(&mut rng), dir(&mut rng))).collect()
     }
 
+    /// Measures one material on the scene's first object: GPU and CPU frame
+    /// times, evaluation throughput, agreement; returns its row, the GPU
+    /// image and the scene's exposure.
+    fn measure(
+        args: &GpuBenchArgs,
+        desc: &SceneDescription,
+        ctx: &GpuContext,
+        object_material: &str,
+        resolution: Option<(usize, usize)>,
+        name: &str,
+    ) -> Result<(Row, render_cpu::Image, f64)> {
+        let options = |to: &str| RenderOptions {
+            swaps: vec![(object_material.to_string(), to.to_string())],
+            resolution,
+            cache_dir: args.cache.clone(),
+            ..Default::default()
+        };
+        let (scene, _) = prepare_file(&args.scene, &options(name))
+            .with_context(|| format!("scene {} with {name}", args.scene.display()))?;
+        let gpu_scene = GpuScene::from_scene(&scene)?;
+        let Some(ClosedForm::Fit(fit)) = gpu_scene.materials.first().cloned() else {
+            bail!("material `{name}` is not a rational fit");
+        };
+        let compact: &CompactBrdf = fit.compact();
+
+        let t = Instant::now();
+        let renderer = GpuRenderer::new(ctx, &gpu_scene)?;
+        let image = renderer.render()?;
+        let gpu_setup_s = t.elapsed().as_secs_f64();
+        let timing = renderer.time_frames(args.frames)?;
+        eprintln!(
+            "{name}: GPU {:.4} s/frame ({:.1} fps), first frame {:.2} s",
+            timing.seconds_per_frame,
+            1.0 / timing.seconds_per_frame,
+            timing.first_frame_seconds
+        );
+
+        // Evaluation throughput, kernel against the CPU f32 path.
+        let p = pairs(args.pairs.clamp(1, 1 << 20), fit.max_elevation());
+        let kernel = BatchEvaluator::new(ctx, compact)?;
+        let resident = kernel.time_resident(&p, 8)?;
+        let t = Instant::now();
+        let values = kernel.eval(&p)?;
+        let transfer = t.elapsed().as_secs_f64();
+        let t = Instant::now();
+        let cpu_values: Vec<[f32; 3]> = p
+            .par_iter()
+            .map(|(wi, wo)| compact.eval(*wi, *wo))
+            .collect();
+        let cpu_eval_s = t.elapsed().as_secs_f64();
+        let peak = cpu_values
+            .iter()
+            .flatten()
+            .fold(0.0f32, |m, v| m.max(v.abs()));
+        let kernel_worst = values
+            .iter()
+            .zip(&cpu_values)
+            .flat_map(|(g, c)| (0..3).map(move |k| (g[k], c[k])))
+            .map(|(g, c)| {
+                let e = ((g - c).abs() / agreement_tolerance(c, peak)) as f64;
+                // A non-finite GPU value is the worst disagreement.
+                if e.is_finite() {
+                    e
+                } else {
+                    f64::INFINITY
+                }
+            })
+            .fold(0.0, f64::max);
+
+        let (mut cpu_frame_s, mut table_frame_s) = (f64::NAN, f64::NAN);
+        let (mut de_vs_cpu, mut de_max_vs_cpu, mut de_vs_table) = (f64::NAN, f64::NAN, f64::NAN);
+        if !args.no_cpu {
+            let cpu = render(&scene, &|_, _| {});
+            cpu_frame_s = cpu.stats.seconds;
+            let (c, _) = compare(&cpu.image, &image, scene.exposure)?;
+            de_vs_cpu = c.covered_mean_de2000;
+            de_max_vs_cpu = c.max_de2000;
+            if let Some(MaterialDescription::Fitted { source, .. }) = desc.materials.get(name) {
+                let (table_scene, _) = prepare_file(&args.scene, &options(source))?;
+                let table = render(&table_scene, &|_, _| {});
+                table_frame_s = table.stats.seconds;
+                de_vs_table = compare(&table.image, &image, scene.exposure)?
+                    .0
+                    .covered_mean_de2000;
+            }
+            eprintln!(
+                "{name}: CPU {cpu_frame_s:.3} s/frame; GPU vs CPU mean dE2000 {de_vs_cpu:.4} (max {de_max_vs_cpu:.3}); vs the table {de_vs_table:.3}"
+            );
+        }
+        let row = Row {
+            material: name.to_string(),
+            coefficients: fit.fit().coefficients(),
+            bytes: fit.fit().byte_size_f32(),
+            gpu_setup_s,
+            gpu_frame_s: timing.seconds_per_frame,
+            cpu_frame_s,
+            table_frame_s,
+            gpu_evals_resident: p.len() as f64 / resident,
+            gpu_evals_transfer: p.len() as f64 / transfer,
+            cpu_evals: p.len() as f64 / cpu_eval_s,
+            kernel_worst,
+            de_vs_cpu,
+            de_max_vs_cpu,
+            de_vs_table,
+        };
+        Ok((row, image, scene.exposure))
+    }
+
+    /// `frame_time.svg/.png`: frame time against coefficients, error
+    /// against frame time.
+    fn write_figure(
+        args: &GpuBenchArgs,
+        rows: &[Row],
+        adapter: &str,
+        threads: usize,
+    ) -> Result<()> {
+        let series = |f: &dyn Fn(&Row) -> (f64, f64), k: usize| -> Vec<(usize, f64, f64)> {
+            rows.iter().map(|r| (k, f(r).0, f(r).1)).collect()
+        };
+        let mut time = series(&|r| (r.coefficients as f64, r.gpu_frame_s), 0);
+        time.extend(series(&|r| (r.coefficients as f64, r.cpu_frame_s), 1));
+        let mut error = series(&|r| (r.gpu_frame_s, r.de_vs_table), 0);
+        error.extend(series(&|r| (r.cpu_frame_s, r.de_vs_table), 1));
+        let figure = Figure {
+            title: format!("{}: {adapter}", args.scene.display()),
+            x_label: "coefficients / seconds per frame".into(),
+            y_label: "seconds per frame / mean dE2000 against the table".into(),
+            legend: vec!["GPU".into(), format!("CPU ({threads} threads)")],
+            panels: vec![
+                Panel {
+                    title: "frame time vs coefficients".into(),
+                    points: time,
+                    front: Vec::new(),
+                },
+                Panel {
+                    title: "error vs frame time".into(),
+                    points: error,
+                    front: Vec::new(),
+                },
+            ],
+            columns: 2,
+        };
+        crate::output::write(args.out.join("frame_time.svg"), figure.svg())?;
+        figure.png(&args.out.join("frame_time.png"))
+    }
+
     /// Runs `ratfit bench gpu`.
     pub fn run(args: GpuBenchArgs) -> Result<()> {
         let start = Instant::now();
@@ -134,105 +280,13 @@ mod imp {
         let mut rows = Vec::new();
         let mut first_image = None;
         for name in &materials {
-            let options = |to: &str| RenderOptions {
-                swaps: vec![(object_material.clone(), to.to_string())],
-                resolution,
-                cache_dir: args.cache.clone(),
-                ..Default::default()
-            };
-            let (scene, _) = prepare_file(&args.scene, &options(name))
-                .with_context(|| format!("scene {} with {name}", args.scene.display()))?;
-            let gpu_scene = GpuScene::from_scene(&scene)?;
-            let Some(ClosedForm::Fit(fit)) = gpu_scene.materials.first().cloned() else {
-                bail!("material `{name}` is not a rational fit");
-            };
-            let compact: &CompactBrdf = fit.compact();
-
-            let t = Instant::now();
-            let renderer = GpuRenderer::new(&ctx, &gpu_scene)?;
-            let image = renderer.render()?;
-            let gpu_setup_s = t.elapsed().as_secs_f64();
-            let timing = renderer.time_frames(args.frames)?;
-            eprintln!(
-                "{name}: GPU {:.4} s/frame ({:.1} fps), first frame {:.2} s",
-                timing.seconds_per_frame,
-                1.0 / timing.seconds_per_frame,
-                timing.first_frame_seconds
-            );
-
-            // Evaluation throughput, kernel against the CPU f32 path.
-            let p = pairs(args.pairs.clamp(1, 1 << 20), fit.max_elevation());
-            let kernel = BatchEvaluator::new(&ctx, compact)?;
-            let resident = kernel.time_resident(&p, 8)?;
-            let t = Instant::now();
-            let values = kernel.eval(&p)?;
-            let transfer = t.elapsed().as_secs_f64();
-            let t = Instant::now();
-            let cpu_values: Vec<[f32; 3]> = p
-                .par_iter()
-                .map(|(wi, wo)| compact.eval(*wi, *wo))
-                .collect();
-            let cpu_eval_s = t.elapsed().as_secs_f64();
-            let peak = cpu_values
-                .iter()
-                .flatten()
-                .fold(0.0f32, |m, v| m.max(v.abs()));
-            let kernel_worst = values
-                .iter()
-                .zip(&cpu_values)
-                .flat_map(|(g, c)| (0..3).map(move |k| (g[k], c[k])))
-                .map(|(g, c)| {
-                    let e = ((g - c).abs() / agreement_tolerance(c, peak)) as f64;
-                    // A non-finite GPU value is the worst disagreement.
-                    if e.is_finite() {
-                        e
-                    } else {
-                        f64::INFINITY
-                    }
-                })
-                .fold(0.0, f64::max);
-
-            let (mut cpu_frame_s, mut table_frame_s) = (f64::NAN, f64::NAN);
-            let (mut de_vs_cpu, mut de_max_vs_cpu, mut de_vs_table) =
-                (f64::NAN, f64::NAN, f64::NAN);
-            if !args.no_cpu {
-                let cpu = render(&scene, &|_, _| {});
-                cpu_frame_s = cpu.stats.seconds;
-                let (c, _) = compare(&cpu.image, &image, scene.exposure)?;
-                de_vs_cpu = c.covered_mean_de2000;
-                de_max_vs_cpu = c.max_de2000;
-                if let Some(MaterialDescription::Fitted { source, .. }) = desc.materials.get(name) {
-                    let (table_scene, _) = prepare_file(&args.scene, &options(source))?;
-                    let table = render(&table_scene, &|_, _| {});
-                    table_frame_s = table.stats.seconds;
-                    de_vs_table = compare(&table.image, &image, scene.exposure)?
-                        .0
-                        .covered_mean_de2000;
-                }
-                eprintln!(
-                    "{name}: CPU {cpu_frame_s:.3} s/frame; GPU vs CPU mean dE2000 {de_vs_cpu:.4} (max {de_max_vs_cpu:.3}); vs the table {de_vs_table:.3}"
-                );
-            }
+            let (row, image, exposure) =
+                measure(&args, &desc, &ctx, &object_material, resolution, name)?;
             if first_image.is_none() {
-                image.write(&args.out.join("gpu.png"), scene.exposure)?;
+                image.write(&args.out.join("gpu.png"), exposure)?;
                 first_image = Some(name.clone());
             }
-            rows.push(Row {
-                material: name.clone(),
-                coefficients: fit.fit().coefficients(),
-                bytes: fit.fit().byte_size_f32(),
-                gpu_setup_s,
-                gpu_frame_s: timing.seconds_per_frame,
-                cpu_frame_s,
-                table_frame_s,
-                gpu_evals_resident: p.len() as f64 / resident,
-                gpu_evals_transfer: p.len() as f64 / transfer,
-                cpu_evals: p.len() as f64 / cpu_eval_s,
-                kernel_worst,
-                de_vs_cpu,
-                de_max_vs_cpu,
-                de_vs_table,
-            });
+            rows.push(row);
         }
         rows.sort_by_key(|r| r.coefficients);
 
@@ -274,34 +328,7 @@ mod imp {
         );
         crate::output::write(args.out.join("summary.md"), &md)?;
 
-        let series = |f: &dyn Fn(&Row) -> (f64, f64), k: usize| -> Vec<(usize, f64, f64)> {
-            rows.iter().map(|r| (k, f(r).0, f(r).1)).collect()
-        };
-        let mut time = series(&|r| (r.coefficients as f64, r.gpu_frame_s), 0);
-        time.extend(series(&|r| (r.coefficients as f64, r.cpu_frame_s), 1));
-        let mut error = series(&|r| (r.gpu_frame_s, r.de_vs_table), 0);
-        error.extend(series(&|r| (r.cpu_frame_s, r.de_vs_table), 1));
-        let figure = Figure {
-            title: format!("{}: {adapter}", args.scene.display()),
-            x_label: "coefficients / seconds per frame".into(),
-            y_label: "seconds per frame / mean dE2000 against the table".into(),
-            legend: vec!["GPU".into(), format!("CPU ({threads} threads)")],
-            panels: vec![
-                Panel {
-                    title: "frame time vs coefficients".into(),
-                    points: time,
-                    front: Vec::new(),
-                },
-                Panel {
-                    title: "error vs frame time".into(),
-                    points: error,
-                    front: Vec::new(),
-                },
-            ],
-            columns: 2,
-        };
-        crate::output::write(args.out.join("frame_time.svg"), figure.svg())?;
-        figure.png(&args.out.join("frame_time.png"))?;
+        write_figure(&args, &rows, &adapter, threads)?;
         print!("{md}");
         eprintln!("wrote {}", args.out.display());
         // The run checks itself: the kernel within the stated tolerance of

@@ -138,10 +138,24 @@ pub fn run(args: RenderBenchArgs) -> Result<()> {
         .file_stem()
         .map(|s| s.to_string_lossy().to_string())
         .unwrap_or_default();
+    write_csv(&args, &scene_name, &rows)?;
+    write_figure(&args, &scene_name, &rows)?;
+    let md = summary(&args, &scene_name, &rows, reference.stats.seconds);
+    crate::output::write(args.out.join("summary.md"), &md)?;
+    println!("\n{md}");
+    println!(
+        "wrote {}/render.csv, error_vs_time.svg/.png, summary.md, reference.exr",
+        args.out.display()
+    );
+    Ok(())
+}
+
+/// `render.csv`: one row per sampler and sample count.
+fn write_csv(args: &RenderBenchArgs, scene_name: &str, rows: &[Row]) -> Result<()> {
     let mut csv = String::from(
         "scene,sampler,spp,seconds,rmse,mean_de2000,var_r,var_g,var_b,sampler_bytes\n",
     );
-    for r in &rows {
+    for r in rows {
         let _ = writeln!(
             csv,
             "{scene_name},{},{},{:.6},{:.6e},{:.6},{:.6e},{:.6e},{:.6e},{}",
@@ -156,8 +170,11 @@ pub fn run(args: RenderBenchArgs) -> Result<()> {
             r.sampler_bytes
         );
     }
-    crate::output::write(args.out.join("render.csv"), csv)?;
+    crate::output::write(args.out.join("render.csv"), csv)
+}
 
+/// `error_vs_time.svg/.png`: RMSE against time and against samples.
+fn write_figure(args: &RenderBenchArgs, scene_name: &str, rows: &[Row]) -> Result<()> {
     let names: Vec<String> = args.samplers.iter().map(|s| s.name().to_string()).collect();
     let series = |f: &dyn Fn(&Row) -> (f64, f64)| -> Vec<(usize, f64, f64)> {
         rows.iter()
@@ -195,8 +212,17 @@ pub fn run(args: RenderBenchArgs) -> Result<()> {
         columns: 2,
     };
     crate::output::write(args.out.join("error_vs_time.svg"), figure.svg())?;
-    figure.png(&args.out.join("error_vs_time.png"))?;
+    figure.png(&args.out.join("error_vs_time.png"))
+}
 
+/// `summary.md`: equal samples and equal time.
+fn summary(
+    args: &RenderBenchArgs,
+    scene_name: &str,
+    rows: &[Row],
+    reference_seconds: f64,
+) -> String {
+    let names: Vec<String> = args.samplers.iter().map(|s| s.name().to_string()).collect();
     // Equal time: each sampler's RMSE interpolated at the longest time all reach.
     let curve = |s: SamplerKind| -> Vec<(f64, f64)> {
         let mut p: Vec<(f64, f64)> = rows
@@ -214,7 +240,7 @@ pub fn run(args: RenderBenchArgs) -> Result<()> {
         .fold(f64::INFINITY, f64::min);
     let mut md = format!(
         "# Samplers on `{scene_name}`\n\n{} ({} sampler, {} spp, {:.1} s) is the reference; errors are RMSE of linear values and the mean CIEDE2000 over non-black pixels. Seed 1 for every compared render.\n\n## Equal samples\n\n| spp |",
-        "reference.exr", args.reference_sampler.name(), args.reference_spp, reference.stats.seconds
+        "reference.exr", args.reference_sampler.name(), args.reference_spp, reference_seconds
     );
     for n in &names {
         let _ = write!(md, " {n} RMSE (s) |");
@@ -248,13 +274,7 @@ pub fn run(args: RenderBenchArgs) -> Result<()> {
             );
         }
     }
-    crate::output::write(args.out.join("summary.md"), &md)?;
-    println!("\n{md}");
-    println!(
-        "wrote {}/render.csv, error_vs_time.svg/.png, summary.md, reference.exr",
-        args.out.display()
-    );
-    Ok(())
+    md
 }
 
 #[cfg(test)]

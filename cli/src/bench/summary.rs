@@ -128,17 +128,27 @@ pub fn summary_md(rows: &[Row], info: &RunInfo) -> String {
         "`{}` on {}, {} threads, {} (UTC), commit `{}`; the run took {:.0} s. Every point is measured by ratfit's own f64 verifier; \"verified\" means inside every interval at every sample. Times are medians of the timed runs after a warm-up.\n",
         info.command, info.machine, info.threads, info.date, info.commit, info.wall_s
     );
-    let instances = instances_in_order(rows);
     for (name, what) in &info.instances {
         let _ = writeln!(s, "- `{name}`: {what}");
     }
     let _ = writeln!(s);
 
+    let instances = instances_in_order(rows);
+    fastest_section(&mut s, rows, &instances);
+    ratios_section(&mut s, rows, &instances);
+    sweep_section(&mut s, rows);
+    growth_section(&mut s, rows);
+    aaa_section(&mut s, rows);
+    s
+}
+
+/// The fastest backend at each instance's best verified error.
+fn fastest_section(s: &mut String, rows: &[Row], instances: &[String]) {
     let _ = writeln!(s, "## Fastest backend at the best verified error\n");
     let _ = writeln!(s, "At each instance's first size: the split and tolerance whose verified fit has the smallest max relative error, the fastest backend there, and every other backend at that point.\n");
     let _ = writeln!(s, "| instance | samples | best max rel error | split, tol | fastest | time | others at that point |");
     let _ = writeln!(s, "|---|---|---|---|---|---|---|");
-    for inst in &instances {
+    for inst in instances {
         let Some(size) = plot_size(rows, inst) else {
             continue;
         };
@@ -192,7 +202,10 @@ pub fn summary_md(rows: &[Row], info: &RunInfo) -> String {
             others.join("; ")
         );
     }
+}
 
+/// Each backend's time over the native solver's at equal verified depth.
+fn ratios_section(s: &mut String, rows: &[Row], instances: &[String]) {
     let _ = writeln!(s, "\n## Speed ratios at equal verified depth\n");
     let _ = writeln!(s, "Over every case (size, tolerance, split) where both the native solver and the other backend returned a verified point of the same depth (within {EQUAL_DEPTH:e} relative): the other backend's time over the native time. \"Failed\" counts cases the native solver verified and the other did not.\n");
     let _ = writeln!(
@@ -210,7 +223,7 @@ pub fn summary_md(rows: &[Row], info: &RunInfo) -> String {
         }
     }
     let mut all: BTreeMap<String, Vec<f64>> = BTreeMap::new();
-    for inst in &instances {
+    for inst in instances {
         for b in &backends {
             let (mut ratios, mut failed) = (Vec::new(), 0);
             for n in rows.iter().filter(|r| {
@@ -264,7 +277,10 @@ pub fn summary_md(rows: &[Row], info: &RunInfo) -> String {
             );
         }
     }
+}
 
+/// The paper-like sweep rows.
+fn sweep_section(s: &mut String, rows: &[Row]) {
     let sweeps: Vec<&Row> = rows
         .iter()
         .filter(|r| r.mode.starts_with("sweep"))
@@ -300,7 +316,10 @@ pub fn summary_md(rows: &[Row], info: &RunInfo) -> String {
             );
         }
     }
+}
 
+/// Log-log slopes of time against samples.
+fn growth_section(s: &mut String, rows: &[Row]) {
     let _ = writeln!(s, "\n## Time against samples\n");
     let _ = writeln!(s, "Least-squares slope of log time on log samples, per instance and backend, for the split and tolerance verified at the most sizes (at least 3 for a slope).\n");
     let _ = writeln!(
@@ -334,7 +353,10 @@ pub fn summary_md(rows: &[Row], info: &RunInfo) -> String {
             slope.map_or_else(|| "-".into(), |v| format!("**{v:.2}**"))
         );
     }
+}
 
+/// AAA against the interval fits of the same type.
+fn aaa_section(s: &mut String, rows: &[Row]) {
     let aaa: Vec<&Row> = rows.iter().filter(|r| r.mode == "aaa").collect();
     if !aaa.is_empty() {
         let _ = writeln!(s, "\n## AAA against interval fits (1-D)\n");
@@ -382,7 +404,6 @@ pub fn summary_md(rows: &[Row], info: &RunInfo) -> String {
             );
         }
     }
-    s
 }
 
 /// The error-against-time figure (one panel per instance at its first

@@ -141,90 +141,11 @@ pub fn prepare(
     options: &RenderOptions,
 ) -> Result<(Scene, PrepareLog), RenderError> {
     let mut log = PrepareLog::default();
-    for (from, to) in &options.swaps {
-        if !desc.materials.contains_key(to) {
-            return Err(scene_error(
-                origin,
-                format!("swap {from}={to}: no material `{to}`"),
-            ));
-        }
-        let mut hits = 0;
-        for o in &mut desc.objects {
-            if o.material() == from {
-                o.set_material(to);
-                hits += 1;
-            }
-        }
-        if hits == 0 {
-            return Err(scene_error(
-                origin,
-                format!("swap {from}={to}: no object uses `{from}`"),
-            ));
-        }
-    }
+    apply_swaps(&mut desc, origin, &options.swaps)?;
     let integrator = integrator_settings(&desc, origin, options)?;
-    let cam = &desc.camera;
-    let (width, height) = options.resolution.unwrap_or((cam.width, cam.height));
-    if !(1..=16_384).contains(&width) || !(1..=16_384).contains(&height) {
-        return Err(scene_error(
-            origin,
-            format!("resolution {width}x{height} is outside 1..=16384"),
-        ));
-    }
-    if !(cam.fov_deg > 0.0 && cam.fov_deg < 180.0) {
-        return Err(scene_error(
-            origin,
-            format!("fov_deg {} is outside (0, 180)", cam.fov_deg),
-        ));
-    }
-    let from = check_vec(origin, "camera.from", cam.from, false)?;
-    let to = check_vec(origin, "camera.to", cam.to, false)?;
-    let up = check_vec(origin, "camera.up", cam.up, true)?;
-    let forward = crate::math::sub(to, from);
-    if dot(forward, forward) <= 0.0 {
-        return Err(scene_error(
-            origin,
-            "camera.from and camera.to coincide".into(),
-        ));
-    }
-    if crate::math::length(crate::math::cross(normalize(forward), normalize(up))) < 1e-9 {
-        return Err(scene_error(
-            origin,
-            "camera.up is parallel to the viewing direction".into(),
-        ));
-    }
-    let camera = Camera::new(from, to, up, cam.fov_deg, width, height);
+    let camera = build_camera(&desc, origin, options)?;
     let exposure = check_positive(origin, "film.exposure", desc.film.exposure)?;
-
-    // Materials: only those objects use, in order of first use.
-    let mut used: Vec<String> = Vec::new();
-    for o in &desc.objects {
-        let m = o.material().to_string();
-        if !desc.materials.contains_key(&m) {
-            return Err(scene_error(
-                origin,
-                format!("an object uses material `{m}`, which is not defined"),
-            ));
-        }
-        if !used.contains(&m) {
-            used.push(m);
-        }
-    }
-    let sources: Vec<&String> = used
-        .iter()
-        .filter_map(|n| match &desc.materials[n] {
-            MaterialDescription::Fitted { source, .. } => Some(source),
-            _ => None,
-        })
-        .collect();
-    for name in desc.materials.keys().filter(|n| !used.contains(n)) {
-        let why = if sources.contains(&name) {
-            "no object uses it; loaded only if its fit is not cached"
-        } else {
-            "no object uses it"
-        };
-        log.push(Action::Skipped, format!("material {name}"), why, 0.0);
-    }
+    let used = used_materials(&desc, origin, &mut log)?;
     let samples_brdf = integrator.kind == IntegratorKind::Path
         || desc.environment.is_some()
         || desc
@@ -307,6 +228,113 @@ pub fn prepare(
         },
         log,
     ))
+}
+
+/// Puts material `to` on every object that uses `from`, for each swap.
+fn apply_swaps(
+    desc: &mut SceneDescription,
+    origin: &str,
+    swaps: &[(String, String)],
+) -> Result<(), RenderError> {
+    for (from, to) in swaps {
+        if !desc.materials.contains_key(to) {
+            return Err(scene_error(
+                origin,
+                format!("swap {from}={to}: no material `{to}`"),
+            ));
+        }
+        let mut hits = 0;
+        for o in &mut desc.objects {
+            if o.material() == from {
+                o.set_material(to);
+                hits += 1;
+            }
+        }
+        if hits == 0 {
+            return Err(scene_error(
+                origin,
+                format!("swap {from}={to}: no object uses `{from}`"),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// The camera, with the options' resolution, every value checked.
+fn build_camera(
+    desc: &SceneDescription,
+    origin: &str,
+    options: &RenderOptions,
+) -> Result<Camera, RenderError> {
+    let cam = &desc.camera;
+    let (width, height) = options.resolution.unwrap_or((cam.width, cam.height));
+    if !(1..=16_384).contains(&width) || !(1..=16_384).contains(&height) {
+        return Err(scene_error(
+            origin,
+            format!("resolution {width}x{height} is outside 1..=16384"),
+        ));
+    }
+    if !(cam.fov_deg > 0.0 && cam.fov_deg < 180.0) {
+        return Err(scene_error(
+            origin,
+            format!("fov_deg {} is outside (0, 180)", cam.fov_deg),
+        ));
+    }
+    let from = check_vec(origin, "camera.from", cam.from, false)?;
+    let to = check_vec(origin, "camera.to", cam.to, false)?;
+    let up = check_vec(origin, "camera.up", cam.up, true)?;
+    let forward = crate::math::sub(to, from);
+    if dot(forward, forward) <= 0.0 {
+        return Err(scene_error(
+            origin,
+            "camera.from and camera.to coincide".into(),
+        ));
+    }
+    if crate::math::length(crate::math::cross(normalize(forward), normalize(up))) < 1e-9 {
+        return Err(scene_error(
+            origin,
+            "camera.up is parallel to the viewing direction".into(),
+        ));
+    }
+    Ok(Camera::new(from, to, up, cam.fov_deg, width, height))
+}
+
+/// The materials objects use, in order of first use (each must be defined);
+/// the others are logged as skipped.
+fn used_materials(
+    desc: &SceneDescription,
+    origin: &str,
+    log: &mut PrepareLog,
+) -> Result<Vec<String>, RenderError> {
+    let mut used: Vec<String> = Vec::new();
+    for o in &desc.objects {
+        let m = o.material().to_string();
+        if !desc.materials.contains_key(&m) {
+            return Err(scene_error(
+                origin,
+                format!("an object uses material `{m}`, which is not defined"),
+            ));
+        }
+        if !used.contains(&m) {
+            used.push(m);
+        }
+    }
+    let sources: Vec<&String> = used
+        .iter()
+        .filter_map(|n| match &desc.materials[n] {
+            MaterialDescription::Fitted { source, .. } => Some(source),
+            _ => None,
+        })
+        .collect();
+    for name in desc.materials.keys().filter(|n| !used.contains(n)) {
+        let why = if sources.contains(&name) {
+            "no object uses it; loaded only if its fit is not cached"
+        } else {
+            "no object uses it"
+        };
+        log.push(Action::Skipped, format!("material {name}"), why, 0.0);
+    }
+    Ok(used)
 }
 
 /// Most samples per pixel a scene may ask for (about a million: far beyond
