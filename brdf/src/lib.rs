@@ -27,6 +27,7 @@ mod analytic;
 pub mod baseline;
 mod colour;
 pub mod compact;
+pub mod compact_batch;
 mod design;
 mod downsample;
 mod error;
