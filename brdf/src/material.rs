@@ -17,6 +17,23 @@ pub trait Brdf: Send + Sync {
     /// RGB value of the BRDF.
     fn eval(&self, wi: Vec3, wo: Vec3) -> [f64; 3];
 
+    /// `out[i] = eval(wi[i], wo)`: many incident directions and one
+    /// outgoing direction, as at a point lit by many lights. Evaluators
+    /// with a batched path (compact fits) override it.
+    ///
+    /// # Panics
+    /// If `wi` and `out` differ in length.
+    fn eval_incident(&self, wi: &[Vec3], wo: Vec3, out: &mut [[f64; 3]]) {
+        assert_eq!(
+            wi.len(),
+            out.len(),
+            "eval_incident: one output per direction"
+        );
+        for (w, o) in wi.iter().zip(out.iter_mut()) {
+            *o = self.eval(*w, wo);
+        }
+    }
+
     /// A short description for reports.
     fn name(&self) -> String;
 }
@@ -24,6 +41,9 @@ pub trait Brdf: Send + Sync {
 impl<T: Brdf + ?Sized> Brdf for Box<T> {
     fn eval(&self, wi: Vec3, wo: Vec3) -> [f64; 3] {
         (**self).eval(wi, wo)
+    }
+    fn eval_incident(&self, wi: &[Vec3], wo: Vec3, out: &mut [[f64; 3]]) {
+        (**self).eval_incident(wi, wo, out)
     }
     fn name(&self) -> String {
         (**self).name()

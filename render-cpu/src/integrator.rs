@@ -233,13 +233,17 @@ struct Shading<'a> {
 }
 
 impl Shading<'_> {
+    /// The local direction of `wi_world`, `None` below either the
+    /// shading or the geometric surface.
+    fn above(&self, wi_world: Vec3) -> Option<Vec3> {
+        let wi = self.frame.to_local(wi_world);
+        (wi[2] > 0.0 && dot(wi_world, self.ng) > 0.0).then_some(wi)
+    }
+
     /// `f cos` towards the world direction `wi_world`, zero below either
     /// the shading or the geometric surface.
     fn reflect(&self, wi_world: Vec3) -> Option<([f64; 3], Vec3)> {
-        let wi = self.frame.to_local(wi_world);
-        if wi[2] <= 0.0 || dot(wi_world, self.ng) <= 0.0 {
-            return None;
-        }
+        let wi = self.above(wi_world)?;
         let f = self.material.eval(wi, self.wo);
         Some((f.map(|v| v * wi[2]), wi))
     }
@@ -255,20 +259,67 @@ impl Shading<'_> {
     }
 }
 
+/// Lights of a shading point evaluated together: many directional and
+/// point lights (the 256 of the frame-rate scene) go through the BRDF's
+/// batched path in blocks of [`LightBatch::BLOCK`].
+struct LightBatch {
+    wi: [Vec3; LightBatch::BLOCK],
+    power: [[f64; 3]; LightBatch::BLOCK],
+    factor: [f64; LightBatch::BLOCK],
+    len: usize,
+}
+
+impl LightBatch {
+    const BLOCK: usize = 64;
+
+    fn new() -> Self {
+        Self {
+            wi: [[0.0; 3]; Self::BLOCK],
+            power: [[0.0; 3]; Self::BLOCK],
+            factor: [0.0; Self::BLOCK],
+            len: 0,
+        }
+    }
+
+    /// A visible light at local direction `wi`: it adds
+    /// `f cos * power * factor` to `l` (when the block is full or flushed).
+    fn push(&mut self, s: &Shading, wi: Vec3, power: [f64; 3], factor: f64, l: &mut [f64; 3]) {
+        self.wi[self.len] = wi;
+        self.power[self.len] = power;
+        self.factor[self.len] = factor;
+        self.len += 1;
+        if self.len == Self::BLOCK {
+            self.flush(s, l);
+        }
+    }
+
+    fn flush(&mut self, s: &Shading, l: &mut [f64; 3]) {
+        let n = self.len;
+        let mut f = [[0.0; 3]; Self::BLOCK];
+        s.material.eval_incident(&self.wi[..n], s.wo, &mut f[..n]);
+        for i in 0..n {
+            let fc = f[i].map(|v| v * self.wi[i][2]);
+            *l = add(*l, scale(mul(fc, self.power[i]), self.factor[i]));
+        }
+        self.len = 0;
+    }
+}
+
 /// Light sampling at a surface point.
 fn direct(scene: &Scene, s: &Shading, rng: &mut Rng) -> [f64; 3] {
     let mis = scene.integrator.mis;
     let shadows = scene.integrator.shadows;
     let mut l = [0.0; 3];
+    let mut batch = LightBatch::new();
     for light in &scene.lights {
         match light {
             Light::Directional {
                 direction,
                 irradiance,
             } => {
-                if let Some((fc, _)) = s.reflect(*direction) {
+                if let Some(wi) = s.above(*direction) {
                     if !shadows || scene.unoccluded(&s.shadow_ray(*direction, f64::INFINITY)) {
-                        l = add(l, mul(fc, *irradiance));
+                        batch.push(s, wi, *irradiance, 1.0, &mut l);
                     }
                 }
             }
@@ -279,9 +330,9 @@ fn direct(scene: &Scene, s: &Shading, rng: &mut Rng) -> [f64; 3] {
                 let d = sub(*position, s.hit.point);
                 let dist = length(d);
                 let dir = scale(d, 1.0 / dist);
-                if let Some((fc, _)) = s.reflect(dir) {
+                if let Some(wi) = s.above(dir) {
                     if !shadows || scene.unoccluded(&s.shadow_ray(dir, dist * (1.0 - 1e-9))) {
-                        l = add(l, scale(mul(fc, *intensity), 1.0 / (dist * dist)));
+                        batch.push(s, wi, *intensity, 1.0 / (dist * dist), &mut l);
                     }
                 }
             }
@@ -317,6 +368,7 @@ fn direct(scene: &Scene, s: &Shading, rng: &mut Rng) -> [f64; 3] {
             }
         }
     }
+    batch.flush(s, &mut l);
     if mis {
         if let Some(env) = &scene.environment {
             let (dir, pdf) = env.sample(rng.pair());

@@ -51,6 +51,28 @@ impl Brdf for FitInDomain {
             .map(f64::from)
     }
 
+    /// The compact form's batched path, in blocks on the stack.
+    fn eval_incident(&self, wi: &[brdf::Vec3], wo: brdf::Vec3, out: &mut [[f64; 3]]) {
+        assert_eq!(
+            wi.len(),
+            out.len(),
+            "eval_incident: one output per direction"
+        );
+        const BLOCK: usize = 64;
+        let wo32 = [wo.map(|v| v as f32); BLOCK];
+        let (mut a, mut r) = ([[0.0f32; 3]; BLOCK], [[0.0f32; 3]; BLOCK]);
+        for (w, o) in wi.chunks(BLOCK).zip(out.chunks_mut(BLOCK)) {
+            let n = w.len();
+            for (dst, src) in a.iter_mut().zip(w) {
+                *dst = src.map(|v| v as f32);
+            }
+            self.compact.eval_batch(&a[..n], &wo32[..n], &mut r[..n]);
+            for (dst, src) in o.iter_mut().zip(&r) {
+                *dst = src.map(f64::from);
+            }
+        }
+    }
+
     fn name(&self) -> String {
         self.fit.name()
     }
@@ -93,6 +115,15 @@ impl PreparedMaterial {
     /// interpolate to small negative values, which no surface reflects.
     pub fn eval(&self, wi: brdf::Vec3, wo: brdf::Vec3) -> [f64; 3] {
         self.brdf.eval(wi, wo).map(|v| v.max(0.0))
+    }
+
+    /// [`PreparedMaterial::eval`] at many incident directions and one
+    /// outgoing direction (the BRDF's batched path where it has one).
+    pub fn eval_incident(&self, wi: &[brdf::Vec3], wo: brdf::Vec3, out: &mut [[f64; 3]]) {
+        self.brdf.eval_incident(wi, wo, out);
+        for o in out.iter_mut() {
+            *o = o.map(|v| v.max(0.0));
+        }
     }
 }
 

@@ -545,3 +545,35 @@ fn an_exr_environment_map_lights_the_furnace() {
     );
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn many_lights_evaluate_a_fit_as_one_light_at_a_time_does() {
+    // The shading loop hands a fit all its lights at once (the batched f32
+    // path); the values are those of one evaluation per light.
+    use brdf::Brdf;
+    let truth = brdf::CookTorranceGgx {
+        kd: [0.1, 0.2, 0.3],
+        f0: [0.04; 3],
+        alpha: 0.25,
+    };
+    let settings = brdf::BrdfFitSettings::default()
+        .with_reduction(brdf::Reduction::default().with_resolution(20, 20));
+    let (fit, _) = brdf::fit_brdf(&truth, &settings).unwrap();
+    let f = render_cpu::FitInDomain::new(fit);
+    let wo = brdf::from_spherical(0.7, 0.3);
+    // 130 directions: two full blocks and a short one; a few below the horizon.
+    let wi: Vec<[f64; 3]> = (0..130)
+        .map(|k| brdf::from_spherical(1.65 * (k as f64 + 0.5) / 130.0, 0.37 * k as f64))
+        .collect();
+    let mut out = vec![[0.0; 3]; wi.len()];
+    f.eval_incident(&wi, wo, &mut out);
+    for (w, got) in wi.iter().zip(&out) {
+        let one = f.eval(*w, wo);
+        for c in 0..3 {
+            assert!(
+                (got[c] - one[c]).abs() <= 1e-5 * one[c].abs() + 1e-7,
+                "at {w:?}: batched {got:?}, one at a time {one:?}"
+            );
+        }
+    }
+}
