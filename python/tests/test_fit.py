@@ -198,3 +198,59 @@ def test_the_package_docstring_examples_run():
     import doctest
 
     assert doctest.testmod(ratfit).failed == 0
+
+
+def mutations(text, count, seed):
+    """Edited copies of a JSON text: characters replaced, deleted, inserted,
+    numbers changed to extreme values."""
+    rng = np.random.default_rng(seed)
+    extremes = ["1e400", "-1e400", "NaN", "0", "-0", "1e-320", "123456789012", "null", "[]", '"x"']
+    out = []
+    for _ in range(count):
+        t = list(text)
+        kind = rng.integers(4)
+        i = int(rng.integers(len(t)))
+        if kind == 0:
+            t[i] = chr(int(rng.integers(32, 127)))
+        elif kind == 1:
+            del t[i : i + int(rng.integers(1, 20))]
+        elif kind == 2:
+            t.insert(i, rng.choice(list(",:{}[]0-9e.")))
+        else:
+            digits = [j for j, c in enumerate(t) if c.isdigit()]
+            if digits:
+                j = digits[int(rng.integers(len(digits)))]
+                t[j : j + 1] = list(rng.choice(extremes))
+        out.append("".join(t))
+    return out
+
+
+def test_edited_fit_json_is_refused_or_read_never_a_crash():
+    x, v = runge(300)
+    text = ratfit.fit(x, v, rel_tol=0.01).to_json()
+    refused = 0
+    for edited in mutations(text, 400, 11):
+        try:
+            f = ratfit.RationalFit.from_json(edited)
+        except ValueError:
+            refused += 1
+            continue
+        # What reads is a valid function: evaluating it never crashes.
+        f(x[:5])
+    assert refused > 0
+
+
+def test_edited_material_json_is_refused_or_read_never_a_crash(data_dir):
+    path = str(data_dir / "rgl" / "vch_golden_yellow_rgb.bsdf")
+    text = ratfit.fit_brdf(path, dims=2, resolution=(12, 12), rel_tol=0.2, render_check=False).to_json()
+    wi = np.array([[0.0, 0.6, 0.8]])
+    wo = np.array([[0.0, -0.6, 0.8]])
+    refused = 0
+    for edited in mutations(text, 300, 12):
+        try:
+            m = ratfit.FittedMaterial.from_json(edited)
+        except ValueError:
+            refused += 1
+            continue
+        m.eval(wi, wo)
+    assert refused > 0
