@@ -42,7 +42,8 @@ fn from_fit(py: Python<'_>, error: &FitError, message: String) -> PyErr {
             widenings,
             ..
         } => {
-            let err = NoFeasibleFit::new_err(message);
+            // The message names the CLI's flag; here it is a keyword.
+            let err = NoFeasibleFit::new_err(message.replace("--max-coeffs", "max_coeffs"));
             let attach = || -> PyResult<()> {
                 let value = err.value(py);
                 value.setattr("max_coeffs", *max_coeffs)?;
