@@ -33,10 +33,18 @@ where
     py.detach(|| {
         std::thread::scope(|scope| {
             let flag = cancel.clone();
-            let worker = scope.spawn(move || work(flag));
+            // The worker reports on a channel, so a short fit returns as soon
+            // as it is done rather than at the next poll.
+            let (done, finished) = std::sync::mpsc::channel();
+            let worker = scope.spawn(move || {
+                let out = work(flag);
+                let _ = done.send(());
+                out
+            });
             let mut interrupted = None;
-            while !worker.is_finished() {
-                std::thread::sleep(SIGNAL_POLL);
+            while let Err(std::sync::mpsc::RecvTimeoutError::Timeout) =
+                finished.recv_timeout(SIGNAL_POLL)
+            {
                 if interrupted.is_none() {
                     if let Err(e) = Python::attach(|py| py.check_signals()) {
                         cancel.store(true, Ordering::Relaxed);
