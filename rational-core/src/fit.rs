@@ -164,13 +164,9 @@ impl<'a> Prepared<'a> {
         .normalised())
     }
 
-    fn solve(
-        &self,
-        data: &IntervalData,
-        n_p: usize,
-        n_q: usize,
-        want_condition: bool,
-    ) -> Result<SplitFit, FitError> {
+    /// Counts a split about to be solved, or stops the sweep when its
+    /// cancel flag is set.
+    fn start_split(&self) -> Result<(), FitError> {
         if let Some(flag) = &self.settings.cancel {
             if flag.load(Ordering::Relaxed) {
                 return Err(FitError::Cancelled {
@@ -179,6 +175,17 @@ impl<'a> Prepared<'a> {
             }
         }
         self.solved.fetch_add(1, Ordering::Relaxed);
+        Ok(())
+    }
+
+    fn solve(
+        &self,
+        data: &IntervalData,
+        n_p: usize,
+        n_q: usize,
+        want_condition: bool,
+    ) -> Result<SplitFit, FitError> {
+        self.start_split()?;
         let start = Instant::now();
         let mut rows = self.base_rows(n_p, n_q);
         let split_basis = self.basis.with_len(n_p.max(n_q))?;
