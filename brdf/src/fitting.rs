@@ -422,8 +422,10 @@ impl fmt::Display for BrdfFitReport {
                 if let Some(b) = &c.bounds {
                     writeln!(
                         f,
-                        "  {}   peak {:.4e}, noise {:.2}% (estimated), cells bound by perception / floor / noise: {} / {} / {}",
-                        c.channel, b.peak, b.noise * 100.0, b.perceptual_cells, b.floor_cells, b.noise_cells
+                        "  {}   peak {:.4e}, noise {:.2}% (estimated), cells bound by perception / floor / noise: {} / {} / {}; {} cap points, largest value {:.2}x the cap on the dense grid{}",
+                        c.channel, b.peak, b.noise * 100.0, b.perceptual_cells, b.floor_cells, b.noise_cells,
+                        b.cap_points, b.cap_excess,
+                        if b.cap_excess > 1.01 { " (ABOVE the cap)" } else { "" }
                     )?;
                 }
             }
@@ -661,24 +663,17 @@ fn assemble(
     (fitted, report)
 }
 
-/// Rounds of the dense cap check of perceptual fits.
-const CAP_ROUNDS: usize = 2;
-
 /// Most points one round of the cap check adds (the largest excesses).
 const CAP_POINTS_PER_ROUND: usize = 400;
 
-/// Points of a grid over the data's bounding box, twice as dense as the
-/// data along each coordinate (at most 64 per coordinate, offset by half a
-/// step from the box's corners), where `f` exceeds `cap_at` by more than 1%:
-/// the largest [`CAP_POINTS_PER_ROUND`] excesses (relative to the cap),
-/// each with its cap; `None` when there is none.
-fn points_above_cap(
-    data: &IntervalData,
-    f: &RationalFunction,
-    cap_at: &dyn Fn(&[f64]) -> f64,
-) -> Option<(Vec<f64>, Vec<f64>)> {
+/// The dense grid of the cap check: the reduction's whole evaluation domain
+/// ([`Reduction::domain`], corners and faces included, so the
+/// extrapolation beyond the outermost cells is covered), twice as dense as
+/// the data along each coordinate (4 to 64 points), only points whose two
+/// directions are above the horizon.
+fn cap_grid(data: &IntervalData, reduction: &Reduction) -> Vec<Vec<f64>> {
     let dim = data.dim();
-    let bbox = data.bounding_box();
+    let (lower, upper) = reduction.domain();
     // Distinct coordinate values per axis give the data's resolution.
     let per_axis: Vec<usize> = (0..dim)
         .map(|k| {
@@ -689,31 +684,61 @@ fn points_above_cap(
         })
         .collect();
     let total: usize = per_axis.iter().product();
-    let mut found: Vec<(f64, f64, Vec<f64>)> = Vec::new();
-    let mut x = vec![0.0; dim];
+    let mut grid = Vec::with_capacity(total);
     for idx in 0..total {
         let mut rest = idx;
-        for k in 0..dim {
-            let n = per_axis[k];
-            let i = rest % n;
-            rest /= n;
-            let t = (i as f64 + 0.5) / n as f64;
-            x[k] = bbox.lower[k] + t * (bbox.upper[k] - bbox.lower[k]);
+        let x: Vec<f64> = (0..dim)
+            .map(|k| {
+                let n = per_axis[k];
+                let t = (rest % n) as f64 / (n - 1) as f64;
+                rest /= n;
+                lower[k] + t * (upper[k] - lower[k])
+            })
+            .collect();
+        let [theta_h, theta_d, phi_d] = reduction.coordinates.angles(&x);
+        let (wi, wo) = HalfDiff {
+            theta_h,
+            phi_h: 0.0,
+            theta_d,
+            phi_d,
         }
-        let v = f.eval(&x);
-        let cap = cap_at(&x);
-        if v.is_nan() || v > 1.01 * cap {
-            let excess = if v.is_finite() { v / cap } else { f64::MAX };
-            found.push((excess, cap, x.clone()));
+        .to_directions();
+        if wi[2] > 0.0 && wo[2] > 0.0 {
+            grid.push(x);
         }
     }
-    if found.is_empty() {
-        return None;
+    grid
+}
+
+/// The points of `grid` where `f` exceeds `cap_at` by more than 1%, the
+/// largest [`CAP_POINTS_PER_ROUND`] excesses (relative to the cap) each
+/// with its cap, and the largest ratio of `f` to the cap over the grid
+/// (infinite where `f` is not finite).
+fn points_above_cap(
+    grid: &[Vec<f64>],
+    f: &RationalFunction,
+    cap_at: &dyn Fn(&[f64]) -> f64,
+) -> (Vec<f64>, Vec<f64>, f64) {
+    let mut found: Vec<(f64, f64, &[f64])> = Vec::new();
+    let mut largest = 0.0_f64;
+    for x in grid {
+        let v = f.eval(x);
+        let cap = cap_at(x);
+        let excess = if v.is_finite() {
+            v / cap
+        } else {
+            f64::INFINITY
+        };
+        largest = largest.max(excess);
+        if excess > 1.01 {
+            found.push((excess, cap, x));
+        }
     }
     found.sort_by(|a, b| b.0.total_cmp(&a.0));
     found.truncate(CAP_POINTS_PER_ROUND);
     let caps = found.iter().map(|p| p.1).collect();
-    Some((found.into_iter().flat_map(|(_, _, p)| p).collect(), caps))
+    let points = found.iter().flat_map(|p| p.2.iter().copied()).collect();
+    (points, caps, largest)
 }
 
 /// `data` with `points` added as `[0, cap]` constraints, one cap each.
@@ -849,14 +874,25 @@ fn fit_channel(
             Some(lobe) => cap / lobe.factors_at(coordinates.angles(x), s.mode)[c],
             None => cap,
         };
+        let grid = cap_grid(&data, &s.reduction);
         let mut augmented = data.clone();
-        for _ in 0..CAP_ROUNDS {
-            let Some((more, caps)) = points_above_cap(&augmented, &report.function, &cap_at) else {
+        for round in 0..=design.cap_rounds {
+            let (more, caps, largest) = points_above_cap(&grid, &report.function, &cap_at);
+            b.cap_excess = largest;
+            if caps.is_empty() || round == design.cap_rounds {
                 break;
-            };
+            }
             b.cap_points += caps.len();
             augmented = with_cap_points(&augmented, more, &caps).map_err(fit_err)?;
-            report = fit(&augmented, &s.fit).map_err(fit_err)?;
+            // The added constraints only shrink the feasible set: the
+            // smallest budget cannot fall, so the search starts at this one.
+            let budget = report.n_p + report.n_q;
+            let (_, max_coeffs) = s.fit.coeff_range();
+            let warm = s
+                .fit
+                .clone()
+                .with_coeff_range(budget.min(max_coeffs), max_coeffs);
+            report = fit(&augmented, &warm.map_err(fit_err)?).map_err(fit_err)?;
         }
     }
     let f = report.function.clone();
@@ -899,4 +935,64 @@ fn fit_channel(
         },
     };
     Ok((f, rep))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::reduce::{ReductionKind, HORIZON_INSET_RAD};
+    use std::f64::consts::PI;
+
+    #[test]
+    fn the_cap_grid_reaches_the_horizon_beyond_the_outermost_cells() {
+        let reduction = Reduction::default()
+            .with_kind(ReductionKind::Full3d)
+            .with_resolution(8, 8)
+            .with_phi_resolution(8)
+            .whole_hemisphere();
+        let lambert = crate::Lambert {
+            albedo: [0.5, 0.5, 0.5],
+        };
+        let samples = reduction.sample(&lambert);
+        let (data, _) = samples.channel(0, 0.1, 1e-2).unwrap();
+        let grid = cap_grid(&data, &reduction);
+        let angles: Vec<[f64; 3]> = grid
+            .iter()
+            .map(|x| reduction.coordinates.angles(x))
+            .collect();
+        // The cells' centres stop half a bin short of each end; the grid
+        // goes to the ends (theta_d to the inset horizon, phi_d to 0 and pi).
+        let max_theta_d = angles.iter().map(|a| a[1]).fold(0.0, f64::max);
+        assert!((max_theta_d - (PI / 2.0 - HORIZON_INSET_RAD)).abs() < 1e-12);
+        assert!(angles.iter().any(|a| a[0] == 0.0 && a[2] == 0.0));
+        assert!(angles.iter().any(|a| (a[2] - PI).abs() < 1e-12));
+        // Only pairs above the horizon.
+        for a in &angles {
+            let (wi, wo) = HalfDiff {
+                theta_h: a[0],
+                phi_h: 0.0,
+                theta_d: a[1],
+                phi_d: a[2],
+            }
+            .to_directions();
+            assert!(wi[2] > 0.0 && wo[2] > 0.0, "{a:?}");
+        }
+        // 16 points per axis (twice the data's 8), less those below the horizon.
+        assert!(grid.len() < 16 * 16 * 16 && grid.len() > 16 * 16 * 16 / 3);
+    }
+
+    #[test]
+    fn points_above_cap_keep_the_largest_excesses_and_report_the_largest_ratio() {
+        // p(x) = 5 + 5 T1(x / 5 - 1) = x on [0, 10], q = 1.
+        let domain = rational_core::Domain::new(vec![0.0], vec![10.0]).unwrap();
+        let basis =
+            rational_core::Basis::new(rational_core::BasisFamily::Chebyshev, domain, 2).unwrap();
+        let f = RationalFunction::new(basis, vec![5.0, 5.0], vec![1.0]).unwrap();
+        let grid: Vec<Vec<f64>> = (0..10).map(|i| vec![i as f64]).collect();
+        let (points, caps, largest) = points_above_cap(&grid, &f, &|_| 4.0);
+        // f(x) = x exceeds 4.04 at x = 5..9; the largest ratio is 9 / 4.
+        assert_eq!(points, vec![9.0, 8.0, 7.0, 6.0, 5.0]);
+        assert_eq!(caps, vec![4.0; 5]);
+        assert!((largest - 2.25).abs() < 1e-12);
+    }
 }

@@ -46,7 +46,7 @@ pub use alta_rational::{AltaChannel, AltaRational};
 pub use analytic::{schlick, AshikhminShirley, BlinnPhong, CookTorranceGgx, Lambert};
 pub use colour::{luminance, ColourMode, LUMINANCE_WEIGHTS};
 pub use compact::{CompactBrdf, CompactChannel};
-pub use design::{estimate_noise, ChannelBounds, NoiseEstimate, PerceptualBounds};
+pub use design::{estimate_noise, ChannelBounds, NoiseEstimate, PerceptualBounds, MAX_CAP_ROUNDS};
 pub use downsample::DownsampledTable;
 pub use error::{write_atomic, BrdfError};
 pub use fitting::{

@@ -102,6 +102,10 @@ impl Default for Reduction {
     }
 }
 
+/// How far inside the horizon [`Reduction::domain`] stops (radians, about
+/// 0.06 degrees): at the horizon itself a cosine vanishes.
+pub const HORIZON_INSET_RAD: f64 = 1e-3;
+
 /// Most bins a reduction may have along one angle.
 pub const MAX_BINS: usize = 4096;
 
@@ -174,6 +178,24 @@ impl Reduction {
     /// perceptual interval design bounds those cells loosely instead).
     pub fn whole_hemisphere(self) -> Self {
         self.with_max_elevation(90.0).with_max_theta_d(90.0)
+    }
+
+    /// The box of fitting coordinates a fit of this reduction is evaluated
+    /// on: `theta_h` and `theta_d` from 0 to just inside the horizon
+    /// (`theta_d` no further than the grazing cut, where evaluation clamps
+    /// it), `phi_d` over `[0, pi]`; lower and upper corners. The sample
+    /// cells' centres span less, so a check over this box also covers the
+    /// extrapolation beyond the outermost cells.
+    pub fn domain(&self) -> (Vec<f64>, Vec<f64>) {
+        let horizon = PI / 2.0 - HORIZON_INSET_RAD;
+        let theta_d_max = self.max_theta_d_deg.to_radians().min(horizon);
+        let dims = self.dims();
+        let a = self.coordinates.map(0.0, 0.0, 0.0, dims);
+        let b = self.coordinates.map(horizon, theta_d_max, PI, dims);
+        (
+            a.iter().zip(&b).map(|(x, y)| x.min(*y)).collect(),
+            a.iter().zip(&b).map(|(x, y)| x.max(*y)).collect(),
+        )
     }
 
     /// Number of fitting coordinates.

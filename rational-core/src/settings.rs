@@ -287,6 +287,11 @@ impl FitSettings {
         self
     }
 
+    /// The smallest and largest total coefficient budgets searched.
+    pub fn coeff_range(&self) -> (usize, usize) {
+        (self.min_coeffs, self.max_coeffs)
+    }
+
     /// The backend in use.
     pub fn backend(&self) -> Backend {
         self.backend
