@@ -254,28 +254,7 @@ impl AltaRational {
                 continue;
             }
             let d = dim.ok_or_else(|| bad("coefficients before `#DIM`".into()))?;
-            let f: Vec<&str> = t.split_whitespace().collect();
-            if f.len() != d + 1 {
-                return Err(bad(format!(
-                    "line {no}: {} fields, expected {} indices and a value",
-                    f.len(),
-                    d
-                )));
-            }
-            let idx = f[..d]
-                .iter()
-                .map(|v| {
-                    v.parse::<u32>()
-                        .map_err(|_| bad(format!("line {no}: index `{v}`")))
-                })
-                .collect::<Result<Vec<_>, _>>()?;
-            let c: f64 = f[d]
-                .parse()
-                .map_err(|_| bad(format!("line {no}: value `{}`", f[d])))?;
-            if !c.is_finite() {
-                return Err(bad(format!("line {no}: non-finite coefficient")));
-            }
-            coeffs.push((idx, c));
+            coeffs.push(coefficient_line(t, d, no, &bad)?);
         }
         let d = dim.ok_or_else(|| bad("no `#DIM`".into()))?;
         let (p, q) = (
@@ -299,37 +278,79 @@ impl AltaRational {
                 rational_core::MAX_DIMENSION
             )));
         }
-        for (k, c) in channels.iter().enumerate() {
-            if c.min.len() != d || c.max.len() != d {
-                return Err(bad(format!("channel {k}: `#MIN`/`#MAX` need {d} values")));
-            }
-            if let Some(j) = (0..d).find(|&j| !(c.min[j].is_finite() && c.max[j] >= c.min[j])) {
-                return Err(bad(format!(
-                    "channel {k}: coordinate {j} has the range [{}, {}]",
-                    c.min[j], c.max[j]
-                )));
-            }
-            if c.numerator.is_empty() || c.denominator.is_empty() {
-                return Err(bad(format!(
-                    "channel {k}: an empty numerator or denominator"
-                )));
-            }
-            let too_high = c
-                .numerator
-                .iter()
-                .chain(&c.denominator)
-                .flat_map(|(i, _)| i.iter())
-                .find(|&&deg| deg > MAX_ALTA_DEGREE);
-            if let Some(deg) = too_high {
-                return Err(bad(format!(
-                    "channel {k}: degree {deg} is above {MAX_ALTA_DEGREE}"
-                )));
-            }
-        }
+        check_channels(&channels, d, &bad)?;
         Ok(Self {
             dim_in: d,
             param_in,
             channels,
         })
     }
+}
+
+/// One coefficient line: `d` exponent indices and a finite value.
+fn coefficient_line(
+    t: &str,
+    d: usize,
+    no: usize,
+    bad: &dyn Fn(String) -> BrdfError,
+) -> Result<(Vec<u32>, f64), BrdfError> {
+    let f: Vec<&str> = t.split_whitespace().collect();
+    if f.len() != d + 1 {
+        return Err(bad(format!(
+            "line {no}: {} fields, expected {} indices and a value",
+            f.len(),
+            d
+        )));
+    }
+    let idx = f[..d]
+        .iter()
+        .map(|v| {
+            v.parse::<u32>()
+                .map_err(|_| bad(format!("line {no}: index `{v}`")))
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    let c: f64 = f[d]
+        .parse()
+        .map_err(|_| bad(format!("line {no}: value `{}`", f[d])))?;
+    if !c.is_finite() {
+        return Err(bad(format!("line {no}: non-finite coefficient")));
+    }
+    Ok((idx, c))
+}
+
+/// Every channel's ranges (`d` finite, ordered), non-empty numerator and
+/// denominator, and degrees at most [`MAX_ALTA_DEGREE`].
+fn check_channels(
+    channels: &[AltaChannel],
+    d: usize,
+    bad: &dyn Fn(String) -> BrdfError,
+) -> Result<(), BrdfError> {
+    for (k, c) in channels.iter().enumerate() {
+        if c.min.len() != d || c.max.len() != d {
+            return Err(bad(format!("channel {k}: `#MIN`/`#MAX` need {d} values")));
+        }
+        if let Some(j) = (0..d).find(|&j| !(c.min[j].is_finite() && c.max[j] >= c.min[j])) {
+            return Err(bad(format!(
+                "channel {k}: coordinate {j} has the range [{}, {}]",
+                c.min[j], c.max[j]
+            )));
+        }
+        if c.numerator.is_empty() || c.denominator.is_empty() {
+            return Err(bad(format!(
+                "channel {k}: an empty numerator or denominator"
+            )));
+        }
+        let too_high = c
+            .numerator
+            .iter()
+            .chain(&c.denominator)
+            .flat_map(|(i, _)| i.iter())
+            .find(|&&deg| deg > MAX_ALTA_DEGREE);
+        if let Some(deg) = too_high {
+            return Err(bad(format!(
+                "channel {k}: degree {deg} is above {MAX_ALTA_DEGREE}"
+            )));
+        }
+    }
+    Ok(())
 }

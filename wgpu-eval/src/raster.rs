@@ -58,22 +58,7 @@ impl GpuRenderer {
             return Err(GpuError::Invalid("the scene has no triangles".into()));
         }
         let source = render_shader(&scene.materials, scene.lights.len())?;
-        let (eye, forward, right, up, tan_half) = scene.camera;
-        let aspect = scene.width as f64 / scene.height as f64;
-        let (near, far) = scene.depth_range();
-        let v4 = |v: [f64; 3]| [v[0] as f32, v[1] as f32, v[2] as f32, 0.0];
-        let mut globals: Vec<f32> = Vec::with_capacity(24);
-        for v in [eye, forward, right, up] {
-            globals.extend_from_slice(&v4(v));
-        }
-        globals.extend_from_slice(&[
-            (1.0 / (tan_half * aspect)) as f32,
-            (1.0 / tan_half) as f32,
-            near,
-            far,
-        ]);
-        let mut globals: Vec<u32> = globals.iter().map(|v| v.to_bits()).collect();
-        globals.extend_from_slice(&[scene.lights.len() as u32, 0, 0, 0]);
+        let globals = globals_words(scene);
         let mut lights = scene.lights.clone();
         if lights.is_empty() {
             lights.push(GpuLight {
@@ -109,46 +94,7 @@ impl GpuRenderer {
             });
             ctx.queue
                 .write_buffer(&vertices, 0, bytemuck::cast_slice(&scene.vertices));
-            let pipeline = d.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                label: Some("ratfit render"),
-                layout: None,
-                vertex: wgpu::VertexState {
-                    module: &module,
-                    entry_point: Some("vs_main"),
-                    compilation_options: Default::default(),
-                    buffers: &[Some(wgpu::VertexBufferLayout {
-                        array_stride: std::mem::size_of::<Vertex>() as u64,
-                        step_mode: wgpu::VertexStepMode::Vertex,
-                        attributes: &wgpu::vertex_attr_array![
-                            0 => Float32x3, 1 => Float32x3, 2 => Float32x3, 3 => Uint32
-                        ],
-                    })],
-                },
-                primitive: wgpu::PrimitiveState {
-                    cull_mode: None,
-                    ..Default::default()
-                },
-                depth_stencil: Some(wgpu::DepthStencilState {
-                    format: DEPTH,
-                    depth_write_enabled: Some(true),
-                    depth_compare: Some(wgpu::CompareFunction::Less),
-                    stencil: Default::default(),
-                    bias: Default::default(),
-                }),
-                multisample: Default::default(),
-                fragment: Some(wgpu::FragmentState {
-                    module: &module,
-                    entry_point: Some("fs_main"),
-                    compilation_options: Default::default(),
-                    targets: &[Some(wgpu::ColorTargetState {
-                        format: COLOR,
-                        blend: None,
-                        write_mask: wgpu::ColorWrites::ALL,
-                    })],
-                }),
-                multiview_mask: None,
-                cache: None,
-            });
+            let pipeline = render_pipeline(d, &module);
             let bind_group = d.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("ratfit render"),
                 layout: &pipeline.get_bind_group_layout(0),
@@ -331,4 +277,71 @@ impl GpuRenderer {
             first_frame_seconds,
         })
     }
+}
+
+/// The globals uniform: eye, forward, right and up (vec4 each), the
+/// projection scales and depth range, then the light count.
+fn globals_words(scene: &GpuScene) -> Vec<u32> {
+    let (eye, forward, right, up, tan_half) = scene.camera;
+    let aspect = scene.width as f64 / scene.height as f64;
+    let (near, far) = scene.depth_range();
+    let v4 = |v: [f64; 3]| [v[0] as f32, v[1] as f32, v[2] as f32, 0.0];
+    let mut globals: Vec<f32> = Vec::with_capacity(24);
+    for v in [eye, forward, right, up] {
+        globals.extend_from_slice(&v4(v));
+    }
+    globals.extend_from_slice(&[
+        (1.0 / (tan_half * aspect)) as f32,
+        (1.0 / tan_half) as f32,
+        near,
+        far,
+    ]);
+    let mut globals: Vec<u32> = globals.iter().map(|v| v.to_bits()).collect();
+    globals.extend_from_slice(&[scene.lights.len() as u32, 0, 0, 0]);
+    globals
+}
+
+/// The pipeline: one vertex buffer of [`Vertex`], depth test, no culling,
+/// the colour target unblended.
+fn render_pipeline(d: &wgpu::Device, module: &wgpu::ShaderModule) -> wgpu::RenderPipeline {
+    d.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+        label: Some("ratfit render"),
+        layout: None,
+        vertex: wgpu::VertexState {
+            module,
+            entry_point: Some("vs_main"),
+            compilation_options: Default::default(),
+            buffers: &[Some(wgpu::VertexBufferLayout {
+                array_stride: std::mem::size_of::<Vertex>() as u64,
+                step_mode: wgpu::VertexStepMode::Vertex,
+                attributes: &wgpu::vertex_attr_array![
+                    0 => Float32x3, 1 => Float32x3, 2 => Float32x3, 3 => Uint32
+                ],
+            })],
+        },
+        primitive: wgpu::PrimitiveState {
+            cull_mode: None,
+            ..Default::default()
+        },
+        depth_stencil: Some(wgpu::DepthStencilState {
+            format: DEPTH,
+            depth_write_enabled: Some(true),
+            depth_compare: Some(wgpu::CompareFunction::Less),
+            stencil: Default::default(),
+            bias: Default::default(),
+        }),
+        multisample: Default::default(),
+        fragment: Some(wgpu::FragmentState {
+            module,
+            entry_point: Some("fs_main"),
+            compilation_options: Default::default(),
+            targets: &[Some(wgpu::ColorTargetState {
+                format: COLOR,
+                blend: None,
+                write_mask: wgpu::ColorWrites::ALL,
+            })],
+        }),
+        multiview_mask: None,
+        cache: None,
+    })
 }

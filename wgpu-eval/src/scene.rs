@@ -58,6 +58,119 @@ fn unsupported(what: impl Into<String>) -> GpuError {
     GpuError::Unsupported(what.into())
 }
 
+/// The scene's lights as the uniform buffer holds them (directional and
+/// point lights only, at most [`MAX_LIGHTS`]).
+fn gpu_lights(scene: &Scene) -> Result<Vec<GpuLight>, GpuError> {
+    let mut lights = Vec::with_capacity(scene.lights.len());
+    for l in &scene.lights {
+        lights.push(match l {
+            Light::Directional {
+                direction,
+                irradiance,
+            } => GpuLight {
+                where_: [
+                    direction[0] as f32,
+                    direction[1] as f32,
+                    direction[2] as f32,
+                    0.0,
+                ],
+                power: [
+                    irradiance[0] as f32,
+                    irradiance[1] as f32,
+                    irradiance[2] as f32,
+                    0.0,
+                ],
+            },
+            Light::Point {
+                position,
+                intensity,
+            } => GpuLight {
+                where_: [
+                    position[0] as f32,
+                    position[1] as f32,
+                    position[2] as f32,
+                    1.0,
+                ],
+                power: [
+                    intensity[0] as f32,
+                    intensity[1] as f32,
+                    intensity[2] as f32,
+                    0.0,
+                ],
+            },
+            Light::Area { .. } => {
+                return Err(unsupported(
+                    "an area light: the GPU renderer draws directional and point lights",
+                ))
+            }
+        });
+    }
+    if lights.len() > MAX_LIGHTS {
+        return Err(unsupported(format!(
+            "{} lights: at most {MAX_LIGHTS} fit in one uniform buffer",
+            lights.len()
+        )));
+    }
+    Ok(lights)
+}
+
+/// Appends object `oi`'s triangles (three vertices each, flat or mesh
+/// normals) with material `gpu_index`; analytic spheres and planes are
+/// refused.
+fn push_triangles(
+    oi: usize,
+    shape: &Shape,
+    gpu_index: u32,
+    vertices: &mut Vec<Vertex>,
+) -> Result<(), GpuError> {
+    match shape {
+        Shape::Mesh(mesh) => {
+            let p = mesh.positions();
+            for t in mesh.triangles() {
+                let [a, b, c] = t.map(|i| p[i as usize]);
+                let ng = normalize(cross(sub(b, a), sub(c, a)));
+                for (corner, &i) in [a, b, c].into_iter().zip(t.iter()) {
+                    let ns = match mesh.normals() {
+                        Some(n) => n[i as usize],
+                        None => ng,
+                    };
+                    vertices.push(Vertex {
+                        position: f32x3(corner),
+                        shading_normal: f32x3(ns),
+                        geometric_normal: f32x3(ng),
+                        material: gpu_index,
+                    });
+                }
+            }
+        }
+        Shape::Quad { corner, u, v } => {
+            let n = f32x3(normalize(cross(*u, *v)));
+            let at = |a: f64, b: f64| {
+                f32x3([0, 1, 2].map(|k| corner[k] + a * u[k] + b * v[k]))
+            };
+            for (a, b) in [(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 0.0), (1.0, 1.0), (0.0, 1.0)] {
+                vertices.push(Vertex {
+                    position: at(a, b),
+                    shading_normal: n,
+                    geometric_normal: n,
+                    material: gpu_index,
+                });
+            }
+        }
+        Shape::Sphere { .. } => {
+            return Err(unsupported(format!(
+                "object {oi} is an analytic sphere: the GPU renderer draws triangles (use shape = \"mesh-sphere\")"
+            )))
+        }
+        Shape::Plane { .. } => {
+            return Err(unsupported(format!(
+                "object {oi} is an infinite plane: the GPU renderer draws triangles (use a quad)"
+            )))
+        }
+    }
+    Ok(())
+}
+
 fn f32x3(v: [f64; 3]) -> [f32; 3] {
     v.map(|x| x as f32)
 }
@@ -94,56 +207,7 @@ impl GpuScene {
                 "an environment light: the GPU renderer draws directional and point lights",
             ));
         }
-        let mut lights = Vec::with_capacity(scene.lights.len());
-        for l in &scene.lights {
-            lights.push(match l {
-                Light::Directional {
-                    direction,
-                    irradiance,
-                } => GpuLight {
-                    where_: [
-                        direction[0] as f32,
-                        direction[1] as f32,
-                        direction[2] as f32,
-                        0.0,
-                    ],
-                    power: [
-                        irradiance[0] as f32,
-                        irradiance[1] as f32,
-                        irradiance[2] as f32,
-                        0.0,
-                    ],
-                },
-                Light::Point {
-                    position,
-                    intensity,
-                } => GpuLight {
-                    where_: [
-                        position[0] as f32,
-                        position[1] as f32,
-                        position[2] as f32,
-                        1.0,
-                    ],
-                    power: [
-                        intensity[0] as f32,
-                        intensity[1] as f32,
-                        intensity[2] as f32,
-                        0.0,
-                    ],
-                },
-                Light::Area { .. } => {
-                    return Err(unsupported(
-                        "an area light: the GPU renderer draws directional and point lights",
-                    ))
-                }
-            });
-        }
-        if lights.len() > MAX_LIGHTS {
-            return Err(unsupported(format!(
-                "{} lights: at most {MAX_LIGHTS} fit in one uniform buffer",
-                lights.len()
-            )));
-        }
+        let lights = gpu_lights(scene)?;
 
         // Materials in the scene's order; each must have a closed form.
         let mut materials = Vec::new();
@@ -175,51 +239,7 @@ impl GpuScene {
                     materials.len() - 1
                 }
             } as u32;
-            match &o.shape {
-                Shape::Mesh(mesh) => {
-                    let p = mesh.positions();
-                    for t in mesh.triangles() {
-                        let [a, b, c] = t.map(|i| p[i as usize]);
-                        let ng = normalize(cross(sub(b, a), sub(c, a)));
-                        for (corner, &i) in [a, b, c].into_iter().zip(t.iter()) {
-                            let ns = match mesh.normals() {
-                                Some(n) => n[i as usize],
-                                None => ng,
-                            };
-                            vertices.push(Vertex {
-                                position: f32x3(corner),
-                                shading_normal: f32x3(ns),
-                                geometric_normal: f32x3(ng),
-                                material: gpu_index,
-                            });
-                        }
-                    }
-                }
-                Shape::Quad { corner, u, v } => {
-                    let n = f32x3(normalize(cross(*u, *v)));
-                    let at = |a: f64, b: f64| {
-                        f32x3([0, 1, 2].map(|k| corner[k] + a * u[k] + b * v[k]))
-                    };
-                    for (a, b) in [(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 0.0), (1.0, 1.0), (0.0, 1.0)] {
-                        vertices.push(Vertex {
-                            position: at(a, b),
-                            shading_normal: n,
-                            geometric_normal: n,
-                            material: gpu_index,
-                        });
-                    }
-                }
-                Shape::Sphere { .. } => {
-                    return Err(unsupported(format!(
-                        "object {oi} is an analytic sphere: the GPU renderer draws triangles (use shape = \"mesh-sphere\")"
-                    )))
-                }
-                Shape::Plane { .. } => {
-                    return Err(unsupported(format!(
-                        "object {oi} is an infinite plane: the GPU renderer draws triangles (use a quad)"
-                    )))
-                }
-            }
+            push_triangles(oi, &o.shape, gpu_index, &mut vertices)?;
         }
         let c = &scene.camera;
         Ok(Self {

@@ -226,6 +226,19 @@ fn write_outputs(
     total: f64,
     finished: bool,
 ) -> Result<()> {
+    crate::output::write(args.out.join("results.csv"), results_csv(args, rows))?;
+    let md = summary_md(args, dir, rows, total, finished);
+    crate::output::write(args.out.join("summary.md"), &md)?;
+    write_figure(args, rows)?;
+    if finished {
+        print!("{md}");
+        eprintln!("wrote {}", args.out.display());
+    }
+    Ok(())
+}
+
+/// One CSV row per channel fit.
+fn results_csv(args: &RglBenchArgs, rows: &[Row]) -> String {
     let mut csv = String::from(
         "material,dims,channel,samples,n_p,n_q,bytes_f32,interval_scale,rel_tol_used,max_rel,mean_rel,rmse,fit_s,polynomial_max_rel,outcome\n",
     );
@@ -250,8 +263,12 @@ fn write_outputs(
             r.outcome
         );
     }
-    crate::output::write(args.out.join("results.csv"), csv)?;
+    csv
+}
 
+/// The Markdown summary: the run's settings, then one row per material and
+/// dimension.
+fn summary_md(args: &RglBenchArgs, dir: &Path, rows: &[Row], total: f64, finished: bool) -> String {
     let threads = rayon::current_num_threads();
     let mut md = format!(
         "# RGL materials, {}-D fits ({})\n\n`{}`: every file of `{}`. Intervals of {}% asked for (noise floor 1% of each channel's median), at most {} coefficients per channel, staircase search; where a channel has no fit, every half-width is doubled, at most {} times.{} `theta_d <= 78` degrees, elevations <= 70 degrees. Relative errors over samples above the noise floor; times are per channel (channels run in parallel on {threads} threads). {} {:.0} s.\n\n",
@@ -301,10 +318,12 @@ fn write_outputs(
             join(&|r| format!("{:.2}", r.polynomial_max_rel)),
         );
     }
-    crate::output::write(args.out.join("summary.md"), &md)?;
+    md
+}
 
-    // Error against cost: one panel per dimension, one series per interval
-    // width used.
+/// Error against fit time: one panel per dimension, one series per
+/// interval width used.
+fn write_figure(args: &RglBenchArgs, rows: &[Row]) -> Result<()> {
     let scales = [1.0, 2.0, 4.0, 8.0];
     let legend = scales
         .iter()
@@ -339,10 +358,6 @@ fn write_outputs(
     };
     crate::output::write(args.out.join("error_vs_time.svg"), figure.svg())?;
     figure.png(&args.out.join("error_vs_time.png"))?;
-    if finished {
-        print!("{md}");
-        eprintln!("wrote {}", args.out.display());
-    }
     Ok(())
 }
 

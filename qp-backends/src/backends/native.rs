@@ -496,32 +496,8 @@ fn solve_native(problem: &LdpProblem, options: &SolveOptions) -> Solution {
         if !generate {
             break Status::Solved;
         }
-        // One pass over every row: collect the violated rows outside the set.
-        let x = &state.x;
-        let norm_x = norm(x);
-        let check = |(j, row): (usize, &[f64])| -> Option<(f64, usize)> {
-            if in_ws[j] || inv_norm[j] == 0.0 {
-                return None;
-            }
-            let hn = problem.h()[j] * inv_norm[j];
-            let s = dot(row, x) * inv_norm[j] - hn;
-            (s < -tol * (hn.abs() + norm_x)).then_some((s, j))
-        };
-        let mut violated: Vec<(f64, usize)> = if options.parallel {
-            problem
-                .g()
-                .par_chunks_exact(n)
-                .enumerate()
-                .filter_map(check)
-                .collect()
-        } else {
-            problem
-                .g()
-                .chunks_exact(n)
-                .enumerate()
-                .filter_map(check)
-                .collect()
-        };
+        let mut violated =
+            violated_rows(problem, &inv_norm, &in_ws, &state.x, tol, options.parallel);
         if violated.is_empty() {
             break Status::Solved;
         }
@@ -551,11 +527,64 @@ fn solve_native(problem: &LdpProblem, options: &SolveOptions) -> Solution {
             "native",
         );
     }
+    polished_solution(problem, options, &ws, &state, &inv_norm, tol, active_global)
+}
+
+/// One pass over every row: the rows outside the working set that `x`
+/// violates beyond the rounding tolerance, with their scaled slacks.
+fn violated_rows(
+    problem: &LdpProblem,
+    inv_norm: &[f64],
+    in_ws: &[bool],
+    x: &[f64],
+    tol: f64,
+    parallel: bool,
+) -> Vec<(f64, usize)> {
+    let n = problem.cols();
+    let norm_x = norm(x);
+    let check = |(j, row): (usize, &[f64])| -> Option<(f64, usize)> {
+        if in_ws[j] || inv_norm[j] == 0.0 {
+            return None;
+        }
+        let hn = problem.h()[j] * inv_norm[j];
+        let s = dot(row, x) * inv_norm[j] - hn;
+        (s < -tol * (hn.abs() + norm_x)).then_some((s, j))
+    };
+    if parallel {
+        problem
+            .g()
+            .par_chunks_exact(n)
+            .enumerate()
+            .filter_map(check)
+            .collect()
+    } else {
+        problem
+            .g()
+            .chunks_exact(n)
+            .enumerate()
+            .filter_map(check)
+            .collect()
+    }
+}
+
+/// The solved point, polished on its active set when that does not worsen
+/// the largest violation, measured; numerical trouble when the residuals
+/// fail.
+fn polished_solution(
+    problem: &LdpProblem,
+    options: &SolveOptions,
+    ws: &WorkingSet,
+    state: &DualActiveSet,
+    inv_norm: &[f64],
+    tol: f64,
+    active_global: Vec<usize>,
+) -> Solution {
+    let n = problem.cols();
     let mut x = state.x.clone();
     if options.polish {
-        if let Some(px) = polish(&ws, &state.active, n) {
-            let before = worst_violation(problem, &inv_norm, &x, options.parallel);
-            let after = worst_violation(problem, &inv_norm, &px, options.parallel);
+        if let Some(px) = polish(ws, &state.active, n) {
+            let before = worst_violation(problem, inv_norm, &x, options.parallel);
+            let after = worst_violation(problem, inv_norm, &px, options.parallel);
             if after <= before.max(0.0) || after <= tol {
                 x = px;
             }
