@@ -189,18 +189,7 @@ impl<'a> Prepared<'a> {
         let start = Instant::now();
         let mut rows = self.base_rows(n_p, n_q);
         let split_basis = self.basis.with_len(n_p.max(n_q))?;
-        let mut summary = SplitSummary {
-            n_p,
-            n_q,
-            status: Status::Infeasible,
-            accepted: false,
-            note: String::new(),
-            depth: 0.0,
-            condition_number: None,
-            seconds: 0.0,
-            iterations: 0,
-            pole_rounds: 0,
-        };
+        let mut summary = SplitSummary::pending(n_p, n_q);
         let mut poles = PoleReport {
             control: self.settings.pole_control,
             grid_min_q: None,

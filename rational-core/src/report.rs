@@ -32,6 +32,24 @@ pub struct SplitSummary {
     pub pole_rounds: usize,
 }
 
+impl SplitSummary {
+    /// A split not solved yet: infeasible until a solve says otherwise.
+    pub(crate) fn pending(n_p: usize, n_q: usize) -> Self {
+        Self {
+            n_p,
+            n_q,
+            status: Status::Infeasible,
+            accepted: false,
+            note: String::new(),
+            depth: 0.0,
+            condition_number: None,
+            seconds: 0.0,
+            iterations: 0,
+            pole_rounds: 0,
+        }
+    }
+}
+
 /// Pole figures of a fit.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct PoleReport {

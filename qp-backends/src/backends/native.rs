@@ -223,6 +223,24 @@ impl DualActiveSet {
         }
     }
 
+    /// Partial step: the step at which the first active multiplier reaches
+    /// zero along the dual direction, and its position; infinite and `None`
+    /// when no multiplier decreases.
+    fn partial_step(&self) -> (f64, Option<usize>) {
+        let mut t1 = f64::INFINITY;
+        let mut drop_at = None;
+        for k in 0..self.q {
+            if self.rr[k] > 0.0 {
+                let t = self.u[k] / self.rr[k];
+                if t < t1 {
+                    t1 = t;
+                    drop_at = Some(k);
+                }
+            }
+        }
+        (t1, drop_at)
+    }
+
     /// Runs the dual method until no working-set row is violated.
     ///
     /// Large working sets are priced partially: a full pass over the set
@@ -298,18 +316,7 @@ impl DualActiveSet {
                     return InnerEnd::IterationLimit;
                 }
                 let z_norm = self.directions(&np);
-                // Partial step: the first multiplier to reach zero.
-                let mut t1 = f64::INFINITY;
-                let mut drop_at = None;
-                for k in 0..self.q {
-                    if self.rr[k] > 0.0 {
-                        let t = self.u[k] / self.rr[k];
-                        if t < t1 {
-                            t1 = t;
-                            drop_at = Some(k);
-                        }
-                    }
-                }
+                let (t1, drop_at) = self.partial_step();
                 // Full step: the new row becomes tight.
                 let t2 = if z_norm > self.dep_tol {
                     -sp / (z_norm * z_norm)
