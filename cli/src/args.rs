@@ -80,6 +80,19 @@ pub fn spp(s: &str) -> Result<usize, String> {
     count(s, 1 << 20)
 }
 
+/// Refits of the dense cap check: `0..=`[`brdf::MAX_CAP_ROUNDS`].
+pub fn cap_rounds(s: &str) -> Result<usize, String> {
+    let v: usize = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("`{s}` is not a whole number"))?;
+    if v <= brdf::MAX_CAP_ROUNDS {
+        Ok(v)
+    } else {
+        Err(format!("{v} is outside 0..={}", brdf::MAX_CAP_ROUNDS))
+    }
+}
+
 /// A coefficient budget: `2..=`[`rational_core::MAX_BASIS_LEN`].
 pub fn coefficients(s: &str) -> Result<usize, String> {
     let v = count(s, rational_core::MAX_BASIS_LEN)?;

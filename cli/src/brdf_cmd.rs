@@ -90,6 +90,12 @@ pub struct FitArgs {
     /// cell of the hemisphere constrained (no elevation or grazing cut).
     #[arg(long)]
     perceptual: bool,
+    /// Perceptual fits (`--perceptual`, `--target-de`): at most this many
+    /// refits that add the points where the fit exceeds 1.5x the table's
+    /// peak on a dense grid of the whole hemisphere (0: check and report
+    /// only). The report gives the largest excess left.
+    #[arg(long, default_value_t = 2, value_parser = crate::args::cap_rounds)]
+    cap_rounds: usize,
     /// What the three fitted functions are: rgb (one per channel) or
     /// luminance-chroma (the luminance, then r/Y and b/Y). Default: rgb,
     /// and luminance-chroma with `--target-de` (fewer bytes for the same
@@ -206,9 +212,11 @@ pub fn fit_to_json(args: &FitArgs) -> Result<serde_json::Value> {
         .with_fit_settings(fit_settings);
     if args.perceptual {
         let whole = settings.reduction().whole_hemisphere();
-        settings = settings
-            .with_reduction(whole)
-            .with_design(brdf::PerceptualBounds::default().with_rel_tol(args.rel_tol)?);
+        settings = settings.with_reduction(whole).with_design(
+            brdf::PerceptualBounds::default()
+                .with_rel_tol(args.rel_tol)?
+                .with_cap_rounds(args.cap_rounds)?,
+        );
     }
     let (fitted, report, render) = if args.format == "cornell" {
         let data = ScatteredBrdf::read_cornell(&args.material)?;
@@ -309,6 +317,7 @@ fn run_fit_target(
         .with_baselines(false)
         .with_colour_mode(args.colour.unwrap_or(brdf::ColourMode::LuminanceChroma))
         .with_lobe(args.lobe.then(|| brdf::Lobe::fit(material.as_ref())))
+        .with_design(brdf::PerceptualBounds::default().with_cap_rounds(args.cap_rounds)?)
         .with_fit_settings(fit_settings);
     let mode = match args.dims {
         None => render_cpu::fidelity::TargetReduction::Auto,

@@ -187,6 +187,7 @@ fn bad_input_gives_clear_errors() {
         ("rgl", "--resolution", "24,24,24,24", "two or three"),
         ("rgl", "--max-coeffs", "1", "at least 2"),
         ("rgl", "--target-de", "0", "positive"),
+        ("rgl", "--cap-rounds", "17", "outside 0..=16"),
     ] {
         let out = ratfit()
             .arg("fit")

@@ -61,6 +61,7 @@ BRDF_OPTIONS = (
     "time_budget",
     "degree_weights",
     "perceptual",
+    "cap_rounds",
     "colour",
     "lobe",
     "render_check",
@@ -149,7 +150,9 @@ def fit_brdf(path: str, format: Optional[str] = None, **options: Any) -> FittedM
         **options: the flags of ``ratfit fit`` (see :data:`BRDF_OPTIONS`),
             with its defaults: ``dims`` (2 or 3), ``resolution``
             (theta_h, theta_d[, phi_d] bins), ``rel_tol`` (0.05),
-            ``perceptual``, ``colour`` ("rgb" or "luminance-chroma"),
+            ``perceptual``, ``cap_rounds`` (refits of the dense check that
+            keeps perceptual fits under 1.5x the table's peak; default 2),
+            ``colour`` ("rgb" or "luminance-chroma"),
             ``lobe`` (an analytic GGX lobe times the rational functions),
             ``max_coeffs``, ``search``, ``target_de`` (the smallest fit whose
             validation renders reach that mean CIEDE2000), ``time_budget``,

@@ -90,6 +90,7 @@ pub(crate) struct BrdfOptions {
     pub time_budget: f64,
     pub degree_weights: Vec<u16>,
     pub perceptual: bool,
+    pub cap_rounds: usize,
     pub colour: Option<String>,
     pub lobe: bool,
     pub render_check: bool,
@@ -116,6 +117,7 @@ impl Default for BrdfOptions {
             time_budget: 120.0,
             degree_weights: Vec::new(),
             perceptual: false,
+            cap_rounds: 2,
             colour: None,
             lobe: false,
             render_check: true,
@@ -126,7 +128,7 @@ impl Default for BrdfOptions {
 /// The option names, for the error that refuses another.
 const OPTION_NAMES: &str = "format, dims, spread, coords, rel_tol, noise_floor, max_coeffs, \
      max_theta_d, max_elevation, resolution, backend, poles, search, max_widenings, target_de, \
-     time_budget, degree_weights, perceptual, colour, lobe, render_check";
+     time_budget, degree_weights, perceptual, cap_rounds, colour, lobe, render_check";
 
 fn bad(name: &str, reason: impl std::fmt::Display) -> PyErr {
     PyValueError::new_err(format!("option `{name}`: {reason}"))
@@ -207,6 +209,15 @@ impl BrdfOptions {
                 "time_budget" => o.time_budget = positive(n, get(n, &v)?)?,
                 "degree_weights" => o.degree_weights = get(n, &v)?,
                 "perceptual" => o.perceptual = get(n, &v)?,
+                "cap_rounds" => {
+                    o.cap_rounds = get(n, &v)?;
+                    if o.cap_rounds > brdf::MAX_CAP_ROUNDS {
+                        return Err(bad(
+                            n,
+                            format!("{} is outside 0..={}", o.cap_rounds, brdf::MAX_CAP_ROUNDS),
+                        ));
+                    }
+                }
                 "colour" | "color" => o.colour = Some(get(n, &v)?),
                 "lobe" => o.lobe = get(n, &v)?,
                 "render_check" => o.render_check = get(n, &v)?,
@@ -355,11 +366,14 @@ impl BrdfOptions {
             .with_colour_mode(self.colour_mode()?)
             .with_lobe(lobe)
             .with_fit_settings(fit);
+        let design = brdf::PerceptualBounds::default()
+            .with_cap_rounds(self.cap_rounds)
+            .map_err(|e| crate::errors::brdf_error(py, e))?;
         if self.target_de.is_some() {
-            s = s.with_baselines(false);
+            s = s.with_baselines(false).with_design(design);
         } else if self.perceptual {
             let whole = s.reduction().whole_hemisphere();
-            let design = brdf::PerceptualBounds::default()
+            let design = design
                 .with_rel_tol(self.rel_tol)
                 .map_err(|e| crate::errors::brdf_error(py, e))?;
             s = s.with_reduction(whole).with_design(design);
