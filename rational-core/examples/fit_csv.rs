@@ -11,8 +11,11 @@
 use rational_core::{fit, FitReport, FitSettings, IntervalData};
 use std::error::Error;
 
+/// Sample coordinates (`dim` per sample, one after the other) and values.
+type Samples = (usize, Vec<f64>, Vec<f64>);
+
 /// Parses `x_1, ..., x_d, value` rows (a header row, if any, is skipped).
-fn read_csv(text: &str) -> Result<(usize, Vec<f64>, Vec<f64>), Box<dyn Error>> {
+fn read_csv(text: &str) -> Result<Samples, Box<dyn Error>> {
     let (mut dim, mut points, mut values) = (0, Vec::new(), Vec::new());
     for (no, line) in text.lines().enumerate() {
         let fields: Vec<&str> = line.split(',').map(str::trim).collect();
@@ -47,7 +50,7 @@ fn fit_values(
     Ok(fit(&data, &FitSettings::default())?)
 }
 
-fn runge() -> (usize, Vec<f64>, Vec<f64>) {
+fn runge() -> Samples {
     let x: Vec<f64> = (0..2000).map(|i| -1.0 + 2.0 * i as f64 / 1999.0).collect();
     let v = x.iter().map(|x| 1.0 / (1.0 + 25.0 * x * x)).collect();
     (1, x, v)
