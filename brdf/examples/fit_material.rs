@@ -73,7 +73,7 @@ fn main() -> Result<(), Box<dyn Error>> {
         fitted.byte_size_f32(),
         compact.to_bytes().len()
     );
-    for (theta_i, theta_o, phi_o) in [(0.0, 0.0, 0.0), (0.5, 0.5, 3.14), (1.0, 0.3, 2.0)] {
+    for (theta_i, theta_o, phi_o) in [(0.0, 0.0, 0.0), (0.5, 0.5, 3.0), (1.0, 0.3, 2.0)] {
         let (wi, wo) = (from_spherical(theta_i, 0.0), from_spherical(theta_o, phi_o));
         let (t, f) = (table.eval(wi, wo), fitted.eval(wi, wo));
         println!("theta_i {theta_i}, theta_o {theta_o}, phi_o {phi_o}: table {t:.4?}, fit {f:.4?}");
@@ -86,7 +86,10 @@ fn a_noisy_table_fits_within_its_intervals() {
     let table = load(None).unwrap();
     let (fitted, report) = fit_material(table.as_ref(), 10, 0.1).unwrap();
     assert!(report.channels.iter().all(|c| c.verified));
-    let (wi, wo) = (from_spherical(0.3, 0.0), from_spherical(0.3, 3.14159));
+    let (wi, wo) = (
+        from_spherical(0.3, 0.0),
+        from_spherical(0.3, std::f64::consts::PI),
+    );
     let (t, f) = (table.eval(wi, wo), fitted.eval(wi, wo));
     // Within the design's 10% plus the table's 2% noise, near the mirror.
     for c in 0..3 {
