@@ -242,6 +242,13 @@ mod rational_mode {
             .map(|c| format!("({},{})", c.n_p, c.n_q))
             .collect();
         let verified = report.channels.iter().all(|c| c.verified);
+        // The dense cap check's largest value over the cap left, per function.
+        let caps: Vec<String> = report
+            .channels
+            .iter()
+            .filter_map(|c| c.bounds.as_ref().map(|b| (c.channel, b.cap_excess)))
+            .map(|(ch, x)| format!("{ch} {x:.2}"))
+            .collect();
         format!(
             "splits {}; {}{}",
             splits.join(" "),
@@ -252,6 +259,11 @@ mod rational_mode {
                 format!("; widened {}", widened.join(" "))
             }
         ) + &format!("; {} coefficients", fitted.coefficients())
+            + &if caps.is_empty() {
+                String::new()
+            } else {
+                format!("; over the cap x {}", caps.join(" "))
+            }
     }
 
     /// The 2-D `phi_d = pi/2` slice with plain relative intervals inside the
