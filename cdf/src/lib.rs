@@ -40,6 +40,7 @@ mod sampler;
 mod settings;
 pub mod stats;
 mod table;
+mod variance;
 
 pub use error::CdfError;
 pub use fit::fit_table;
@@ -54,3 +55,4 @@ pub use stats::{
     Quadrature, SamplerRow,
 };
 pub use table::{luminance, CdfTable, TableSettings, MAX_TABLE_BYTES};
+pub use variance::{fit_table_to_variance, variance_ratio, VarianceStep, VARIANCE_VIEWS_DEG};

@@ -44,6 +44,16 @@ impl Default for CdfFitSettings {
 }
 
 impl CdfFitSettings {
+    /// The half-width of every interval in CDF space.
+    pub fn cdf_tolerance(&self) -> f64 {
+        self.cdf_tolerance
+    }
+
+    /// The smallest half-width in radians.
+    pub fn min_half_width(&self) -> f64 {
+        self.min_half_width
+    }
+
     /// Half-width of every interval in CDF space, and the smallest half-width
     /// in radians.
     ///
