@@ -4,6 +4,7 @@ use std::path::{Path, PathBuf};
 
 /// Errors reading, writing or fitting reflectance data.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum BrdfError {
     /// The file could not be read or written.
     #[error("{path}: {source}")]

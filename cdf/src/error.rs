@@ -3,6 +3,7 @@
 /// Bad input or settings, a material with no reflectance, or a fit that
 /// could not be made monotone.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum CdfError {
     /// A setting is out of range.
     #[error("invalid setting `{name}`: {reason}")]

@@ -5,6 +5,7 @@
 
 /// Everything that can go wrong before or around a solve.
 #[derive(Debug, thiserror::Error, Clone, PartialEq)]
+#[non_exhaustive]
 pub enum Error {
     /// The problem data are inconsistent or not finite.
     #[error("invalid problem: {0}")]

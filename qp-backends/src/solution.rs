@@ -7,6 +7,7 @@ use crate::LdpProblem;
 
 /// How a backend's solve ended. Infeasibility is an outcome, not an error.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[non_exhaustive]
 pub enum Status {
     /// The backend claims an optimal (or, for LP-form backends, feasible) point.
     Solved,

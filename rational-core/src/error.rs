@@ -2,6 +2,7 @@
 
 /// Bad input, bad settings, or no fit within the allowed budget.
 #[derive(Debug, thiserror::Error, Clone, PartialEq)]
+#[non_exhaustive]
 pub enum FitError {
     /// A coordinate, bound or value is NaN or infinite.
     #[error("{what} {index} is not finite ({value})")]

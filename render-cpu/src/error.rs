@@ -5,6 +5,7 @@ use thiserror::Error;
 /// Everything that can go wrong before or after a render. Rendering itself
 /// cannot fail once a scene is prepared.
 #[derive(Debug, Error)]
+#[non_exhaustive]
 pub enum RenderError {
     /// A file could not be read or written.
     #[error("{path}: {source}")]
