@@ -51,8 +51,8 @@ pub use sampler::{
 };
 pub use settings::CdfFitSettings;
 pub use stats::{
-    albedo_quadrature, chi_square, compare_samplers, estimate_albedo, AlbedoEstimate, ChiSquare,
-    Quadrature, SamplerRow,
+    albedo_quadrature, chi_square, compare_samplers, estimate_albedo, relative_variance,
+    AlbedoEstimate, ChiSquare, Quadrature, SamplerRow,
 };
 pub use table::{luminance, CdfTable, TableSettings, MAX_TABLE_BYTES};
 pub use variance::{fit_table_to_variance, variance_ratio, VarianceStep, VARIANCE_VIEWS_DEG};

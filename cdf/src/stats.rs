@@ -338,6 +338,16 @@ pub struct SamplerRow {
     pub reference: Quadrature,
 }
 
+/// Variance of one sample over the squared albedo (the quadrature value),
+/// averaged over the channels: the row's variance independent of the
+/// material's brightness.
+pub fn relative_variance(row: &SamplerRow) -> f64 {
+    (0..3)
+        .map(|c| row.estimate.variance[c] / row.reference.value[c].powi(2).max(1e-300))
+        .sum::<f64>()
+        / 3.0
+}
+
 /// Albedo estimates of every sampler at every view elevation, with the same
 /// sample count and seed, next to the quadrature value.
 pub fn compare_samplers(

@@ -3,7 +3,7 @@
 //! tolerance is halved until the rational sampler's variance is within a
 //! factor of the tabulated sampler's.
 
-use crate::stats::compare_samplers;
+use crate::stats::{compare_samplers, relative_variance};
 use crate::{fit_table, CdfError, CdfFitReport, CdfFitSettings, CdfTable, RationalCdf};
 use crate::{RationalSampler, Sampler, TabulatedSampler};
 use brdf::Brdf;
@@ -35,13 +35,7 @@ pub fn variance_ratio(
 ) -> f64 {
     let samplers: [&dyn Sampler; 2] = [tabulated, rational];
     let rows = compare_samplers(material, &samplers, &VARIANCE_VIEWS_DEG, samples, 2012);
-    let relative = |k: usize| {
-        let r = &rows[k];
-        (0..3)
-            .map(|c| r.estimate.variance[c] / r.reference.value[c].powi(2).max(1e-300))
-            .sum::<f64>()
-            / 3.0
-    };
+    let relative = |k: usize| relative_variance(&rows[k]);
     let log_sum: f64 = (0..rows.len() / 2)
         .map(|v| (relative(2 * v + 1) / relative(2 * v).max(1e-300)).ln())
         .sum();

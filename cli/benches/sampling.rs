@@ -12,8 +12,8 @@
 use anyhow::{Context, Result};
 use brdf::{Brdf, RglBrdf};
 use cdf::{
-    compare_samplers, fit_table, CdfFitSettings, CdfTable, CosineSampler, RationalSampler, Sampler,
-    SamplerRow, TableSettings, TabulatedSampler,
+    compare_samplers, fit_table, relative_variance, CdfFitSettings, CdfTable, CosineSampler,
+    RationalSampler, Sampler, TableSettings, TabulatedSampler,
 };
 use std::fmt::Write as _;
 use std::path::PathBuf;
@@ -23,14 +23,6 @@ const SAMPLERS: [(&str, &str); 3] = [
     ("tabulated", "#1f77b4"),
     ("rational", "#2ca02c"),
 ];
-
-/// Variance of one sample divided by the squared albedo, averaged over channels.
-fn relative_variance(r: &SamplerRow) -> f64 {
-    (0..3)
-        .map(|c| r.estimate.variance[c] / r.reference.value[c].powi(2).max(1e-300))
-        .sum::<f64>()
-        / 3.0
-}
 
 fn svg(points: &[(String, f64, f64)]) -> String {
     let (w, h, m) = (720.0, 480.0, 70.0);
