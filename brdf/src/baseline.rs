@@ -66,20 +66,23 @@ pub fn polynomial(
     let bb = data.bounding_box();
     let domain = Domain::new(bb.lower, bb.upper).expect("a bounding box is a valid domain");
     let basis = Basis::weighted(family, domain, n.max(1), weights).expect("valid weights");
-    let s = data.len();
+    // Relative errors need a positive value.
+    let positive: Vec<usize> = (0..data.len()).filter(|&i| data.value(i) > 0.0).collect();
     // Design matrix weighted by 1/v: the residual is the relative error.
-    let mut a = faer::Mat::<f64>::zeros(s, basis.len());
+    let mut a = faer::Mat::<f64>::zeros(positive.len(), basis.len());
     let mut row = vec![0.0; basis.len()];
-    for i in 0..s {
+    for (k, &i) in positive.iter().enumerate() {
         basis.eval_into(data.point(i), &mut row);
         for (j, v) in row.iter().enumerate() {
-            a[(i, j)] = v / data.value(i);
+            a[(k, j)] = v / data.value(i);
         }
     }
-    let b = faer::Mat::<f64>::from_fn(s, 1, |_, _| 1.0);
+    let b = faer::Mat::<f64>::from_fn(positive.len(), 1, |_, _| 1.0);
     let c = a.qr().solve_lstsq(&b);
     let coef: Vec<f64> = (0..basis.len()).map(|j| c[(j, 0)]).collect();
-    let errors = (0..s).map(|i| (basis.combine(&coef, data.point(i)) / data.value(i) - 1.0).abs());
+    let errors = positive
+        .iter()
+        .map(|&i| (basis.combine(&coef, data.point(i)) / data.value(i) - 1.0).abs());
     figures(
         format!("polynomial ({} coefficients)", basis.len()),
         basis.len(),
@@ -93,8 +96,10 @@ pub fn polynomial(
 /// and `alpha` (3 numbers).
 pub fn cook_torrance(samples: &Samples, used: &[usize], c: usize) -> BaselineReport {
     let start = Instant::now();
+    // Relative errors need a positive value.
     let rows: Vec<_> = used
         .iter()
+        .filter(|&&i| samples.rows[i].value[c] > 0.0)
         .map(|&i| {
             let r = &samples.rows[i];
             let (wi, wo) = HalfDiff {

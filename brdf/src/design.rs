@@ -48,32 +48,26 @@ pub struct PerceptualBounds {
     pub visibility: f64,
     /// Half-widths are at least this many estimated noise deviations.
     pub noise_factor: f64,
-    /// Upper bounds are at most this multiple of the channel's peak.
+    /// Upper bounds are at most this multiple of the channel's peak (and
+    /// the dense cap check of `brdf::fitting` holds the fit below it).
     pub peak_cap: f64,
-    /// Most refits of the dense cap check (each adds the largest excesses
-    /// over the cap as constraints); 0 checks and reports without refitting.
-    #[serde(default = "default_cap_rounds")]
-    pub cap_rounds: usize,
 }
 
-fn default_cap_rounds() -> usize {
-    2
-}
-
-/// Most refits [`PerceptualBounds::cap_rounds`] may ask for.
-pub const MAX_CAP_ROUNDS: usize = 16;
+/// The cap on a fitted value, as a multiple of the channel's largest upper
+/// bound, that the dense cap check enforces on plain fits and that the
+/// perceptual design uses by default.
+pub const DEFAULT_PEAK_CAP: f64 = 1.5;
 
 impl Default for PerceptualBounds {
     /// 4% where visible (about one CIEDE2000 unit at mid grey), a floor of
     /// 2% of the median cosine-weighted value, two noise deviations, a cap
-    /// of 1.5x the peak enforced by at most two refits.
+    /// of [`DEFAULT_PEAK_CAP`] times the peak.
     fn default() -> Self {
         Self {
             rel_tol: 0.04,
             visibility: 0.02,
             noise_factor: 2.0,
-            peak_cap: 1.5,
-            cap_rounds: default_cap_rounds(),
+            peak_cap: DEFAULT_PEAK_CAP,
         }
     }
 }
@@ -92,15 +86,6 @@ impl PerceptualBounds {
         }
         self.rel_tol = t;
         Ok(self)
-    }
-
-    /// The same design with at most `rounds` refits of the dense cap check.
-    ///
-    /// # Errors
-    /// Above [`MAX_CAP_ROUNDS`].
-    pub fn with_cap_rounds(mut self, rounds: usize) -> Result<Self, BrdfError> {
-        self.cap_rounds = rounds;
-        self.validate().map(|()| self)
     }
 
     /// Checks every field.
@@ -123,12 +108,6 @@ impl PerceptualBounds {
         }
         if !(self.peak_cap >= 1.0 && self.peak_cap.is_finite()) {
             return Err(bad("peak cap", self.peak_cap));
-        }
-        if self.cap_rounds > MAX_CAP_ROUNDS {
-            return Err(BrdfError::Invalid {
-                name: "cap rounds",
-                reason: format!("{} is above {MAX_CAP_ROUNDS}", self.cap_rounds),
-            });
         }
         Ok(())
     }
@@ -259,16 +238,6 @@ pub struct ChannelBounds {
     pub floor_cells: usize,
     /// Cells whose half-width is the noise.
     pub noise_cells: usize,
-    /// Points between the cells where a fit exceeded the cap and that were
-    /// added as `[0, cap]` constraints before fitting again
-    /// (`brdf::fitting`'s dense check).
-    #[serde(default)]
-    pub cap_points: usize,
-    /// Largest ratio of the final fit to its cap on the dense grid of the
-    /// whole evaluation domain (at most about 1.01 when the cap check
-    /// succeeded; 0 in files written before the check covered the domain).
-    #[serde(default)]
-    pub cap_excess: f64,
 }
 
 impl Samples {
@@ -323,8 +292,6 @@ impl Samples {
             perceptual_cells: 0,
             floor_cells: 0,
             noise_cells: 0,
-            cap_points: 0,
-            cap_excess: 0.0,
         };
         let (mut lo, mut hi, mut values) = (
             Vec::with_capacity(used.len()),

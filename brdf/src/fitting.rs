@@ -2,10 +2,10 @@
 
 use crate::baseline::BaselineReport;
 use crate::colour::ColourMode;
-use crate::design::{ChannelBounds, PerceptualBounds};
+use crate::design::{ChannelBounds, PerceptualBounds, DEFAULT_PEAK_CAP};
 use crate::geometry::{HalfDiff, Vec3};
 use crate::lobe::Lobe;
-use crate::reduce::{Reduction, Samples};
+use crate::reduce::{Reduction, Samples, HORIZON_INSET_RAD};
 use crate::{Brdf, BrdfError};
 use rational_core::{fit, FitSettings, IntervalData, RationalFunction};
 use rayon::prelude::*;
@@ -24,12 +24,17 @@ pub struct BrdfFitSettings {
     design: Option<PerceptualBounds>,
     mode: ColourMode,
     lobe: Option<Lobe>,
+    cap_rounds: usize,
 }
+
+/// Most refits [`BrdfFitSettings::with_cap_rounds`] may ask for.
+pub const MAX_CAP_ROUNDS: usize = 16;
 
 impl Default for BrdfFitSettings {
     /// The 2-D slice on the MERL grid, relative intervals of 5% with a noise
     /// floor of 1% of the channel's median value, budgets up to 60
-    /// coefficients per channel, rational-core's other defaults.
+    /// coefficients per channel, at most two refits of the dense cap check,
+    /// rational-core's other defaults.
     fn default() -> Self {
         Self {
             reduction: Reduction::default(),
@@ -39,6 +44,7 @@ impl Default for BrdfFitSettings {
             design: None,
             mode: ColourMode::Rgb,
             lobe: None,
+            cap_rounds: 2,
             fit: FitSettings::default()
                 .with_coeff_range(2, 60)
                 .expect("valid range"),
@@ -120,6 +126,31 @@ impl BrdfFitSettings {
     pub fn with_lobe(mut self, lobe: Option<Lobe>) -> Self {
         self.lobe = lobe;
         self
+    }
+
+    /// At most `rounds` refits of the dense cap check: every fit is
+    /// evaluated on a grid of the whole domain it is evaluated on, twice as
+    /// dense as the data, and the points where it exceeds its cap (the
+    /// perceptual design's `peak_cap`, else [`DEFAULT_PEAK_CAP`], times the
+    /// channel's largest upper bound) are added as `[0, cap]` constraints
+    /// before fitting again. 0 checks and reports without refitting.
+    ///
+    /// # Errors
+    /// Above [`MAX_CAP_ROUNDS`].
+    pub fn with_cap_rounds(mut self, rounds: usize) -> Result<Self, BrdfError> {
+        if rounds > MAX_CAP_ROUNDS {
+            return Err(BrdfError::Invalid {
+                name: "cap rounds",
+                reason: format!("{rounds} is above {MAX_CAP_ROUNDS}"),
+            });
+        }
+        self.cap_rounds = rounds;
+        Ok(self)
+    }
+
+    /// Refits the dense cap check may make.
+    pub fn cap_rounds(&self) -> usize {
+        self.cap_rounds
     }
 
     /// The analytic lobe the functions multiply, when in use.
@@ -361,12 +392,45 @@ pub struct ChannelReport {
     /// What the perceptual design used (when in use).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub bounds: Option<ChannelBounds>,
+    /// What the dense cap check found (absent from files written before
+    /// every fit had one).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cap: Option<CapCheck>,
     /// Baselines on the same samples (when enabled).
     pub baselines: Vec<BaselineReport>,
 }
 
 fn unit_scale() -> f64 {
     1.0
+}
+
+/// What the dense cap check found for one function: between the samples
+/// nothing bounds `p / q`, so the fit is evaluated on a grid of its whole
+/// evaluation domain.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct CapCheck {
+    /// The cap on the fitted value (of the product, with a lobe) in the
+    /// function's units.
+    pub cap: f64,
+    /// Grid points the check evaluated.
+    pub grid_points: usize,
+    /// Points where a fit exceeded the cap, added as `[0, cap]`
+    /// constraints before fitting again.
+    pub points: usize,
+    /// Refits made.
+    pub refits: usize,
+    /// Largest ratio of the final fit to the cap over the grid's finite
+    /// values (at most about 1.01 when the check succeeded).
+    pub largest: f64,
+    /// Grid points where the final fit is not finite (a pole).
+    pub non_finite: usize,
+}
+
+impl CapCheck {
+    /// The final fit stays within 1% of its cap on the whole grid.
+    pub fn held(&self) -> bool {
+        self.non_finite == 0 && self.largest <= 1.01
+    }
 }
 
 /// The report of [`fit_brdf`].
@@ -422,12 +486,30 @@ impl fmt::Display for BrdfFitReport {
                 if let Some(b) = &c.bounds {
                     writeln!(
                         f,
-                        "  {}   peak {:.4e}, noise {:.2}% (estimated), cells bound by perception / floor / noise: {} / {} / {}; {} cap points, largest value {:.2}x the cap on the dense grid{}",
+                        "  {}   peak {:.4e}, noise {:.2}% (estimated), cells bound by perception / floor / noise: {} / {} / {}",
                         c.channel, b.peak, b.noise * 100.0, b.perceptual_cells, b.floor_cells, b.noise_cells,
-                        b.cap_points, b.cap_excess,
-                        if b.cap_excess > 1.01 { " (ABOVE the cap)" } else { "" }
                     )?;
                 }
+            }
+        }
+        for c in &self.channels {
+            if let Some(k) = &c.cap {
+                writeln!(
+                    f,
+                    "  {}   cap check on {} points of the evaluation domain: cap {:.4e}, {} points added in {} refits, largest value {:.2}x the cap{}{}",
+                    c.channel,
+                    k.grid_points,
+                    k.cap,
+                    k.points,
+                    k.refits,
+                    k.largest,
+                    if k.non_finite > 0 {
+                        format!(", NOT FINITE at {} points", k.non_finite)
+                    } else {
+                        String::new()
+                    },
+                    if k.held() { "" } else { " (ABOVE the cap)" }
+                )?;
             }
         }
         if let Some(l) = &self.lobe {
@@ -666,23 +748,40 @@ fn assemble(
 /// Most points one round of the cap check adds (the largest excesses).
 const CAP_POINTS_PER_ROUND: usize = 400;
 
+/// Most points of the cap check's grid: 512 per axis in 2-D, 64 in 3-D.
+const CAP_GRID_MAX_POINTS: usize = 1 << 18;
+
 /// The dense grid of the cap check: the reduction's whole evaluation domain
 /// ([`Reduction::domain`], corners and faces included, so the
 /// extrapolation beyond the outermost cells is covered), twice as dense as
-/// the data along each coordinate (4 to 64 points), only points whose two
-/// directions are above the horizon.
+/// the data along each coordinate (at least 4 points, at most
+/// [`CAP_GRID_MAX_POINTS`] in all), only points whose two directions are
+/// above the horizon and, when the reduction has an elevation cut (where
+/// evaluation clamps directions), within it. The `phi_d = pi / 2` slice
+/// holds both directions nearest the normal, so in 2-D these are exactly the
+/// coordinates that evaluation reaches. Each line of constant `theta_h`
+/// (and `phi_d`) also gets the point where the cut or the horizon ends it:
+/// the last grid point inside stops up to a step short, and fits rise
+/// steepest at that edge.
 fn cap_grid(data: &IntervalData, reduction: &Reduction) -> Vec<Vec<f64>> {
     let dim = data.dim();
     let (lower, upper) = reduction.domain();
+    let most_per_axis = (CAP_GRID_MAX_POINTS as f64).powf(1.0 / dim as f64).floor() as usize;
     // Distinct coordinate values per axis give the data's resolution.
     let per_axis: Vec<usize> = (0..dim)
         .map(|k| {
             let mut v: Vec<f64> = data.points().chunks_exact(dim).map(|p| p[k]).collect();
             v.sort_by(f64::total_cmp);
             v.dedup();
-            (2 * v.len()).clamp(4, 64)
+            (2 * v.len()).clamp(4, most_per_axis.max(4))
         })
         .collect();
+    // A hair below the cut's cosine: points on the cut itself stay.
+    let min_cos = if reduction.max_elevation_deg < 90.0 {
+        reduction.max_elevation_deg.to_radians().cos() - 1e-9
+    } else {
+        0.0
+    };
     let total: usize = per_axis.iter().product();
     let mut grid = Vec::with_capacity(total);
     for idx in 0..total {
@@ -703,42 +802,98 @@ fn cap_grid(data: &IntervalData, reduction: &Reduction) -> Vec<Vec<f64>> {
             phi_d,
         }
         .to_directions();
-        if wi[2] > 0.0 && wo[2] > 0.0 {
+        if wi[2] > 0.0 && wo[2] > 0.0 && wi[2].min(wo[2]) >= min_cos {
             grid.push(x);
         }
     }
+    grid.extend(boundary_points(reduction, &lower, &upper, &per_axis));
     grid
 }
 
-/// The points of `grid` where `f` exceeds `cap_at` by more than 1%, the
-/// largest [`CAP_POINTS_PER_ROUND`] excesses (relative to the cap) each
-/// with its cap, and the largest ratio of `f` to the cap over the grid
-/// (infinite where `f` is not finite).
+/// The points where the elevation cut (or, without one, the inset horizon)
+/// ends each line of constant `theta_h` and `phi_d` of the cap grid: the
+/// smaller elevation of the pair, `cos theta_h cos theta_d - sin theta_h
+/// sin theta_d |cos phi_d|`, equals the cut's cosine there.
+fn boundary_points(
+    reduction: &Reduction,
+    lower: &[f64],
+    upper: &[f64],
+    per_axis: &[usize],
+) -> Vec<Vec<f64>> {
+    let dim = per_axis.len();
+    let horizon = std::f64::consts::FRAC_PI_2 - HORIZON_INSET_RAD;
+    let edge = reduction.max_elevation_deg.to_radians().min(horizon);
+    let theta_d_max = reduction.max_theta_d_deg.to_radians().min(horizon);
+    let n_phi = if dim == 3 { per_axis[2] } else { 1 };
+    let at =
+        |k: usize, i: usize| lower[k] + i as f64 / (per_axis[k] - 1) as f64 * (upper[k] - lower[k]);
+    let mut out = Vec::new();
+    for i in 0..per_axis[0] {
+        for j in 0..n_phi {
+            let mut x = vec![at(0, i), lower[1]];
+            if dim == 3 {
+                x.push(at(2, j));
+            }
+            let [theta_h, _, phi_d] = reduction.coordinates.angles(&x);
+            // a cos(theta_d) - b sin(theta_d) = r cos(theta_d + atan2(b, a)).
+            let (a, b) = (theta_h.cos(), theta_h.sin() * phi_d.cos().abs());
+            let r = a.hypot(b);
+            if edge.cos() >= r {
+                continue; // the whole line is beyond the edge
+            }
+            let theta_d = (edge.cos() / r).acos() - b.atan2(a);
+            if theta_d > 0.0 && theta_d < theta_d_max {
+                out.push(reduction.coordinates.map(theta_h, theta_d, phi_d, dim));
+            }
+        }
+    }
+    out
+}
+
+/// One scan of the cap check's grid.
+struct CapScan {
+    /// The points to add (flattened), the largest excesses first.
+    points: Vec<f64>,
+    /// The cap at each point to add.
+    caps: Vec<f64>,
+    /// Largest ratio of `f` to its cap over the finite values.
+    largest: f64,
+    /// Grid points where `f` is not finite.
+    non_finite: usize,
+}
+
+/// The points of `grid` where `f` exceeds `cap_at` by more than 1% or is
+/// not finite (the largest [`CAP_POINTS_PER_ROUND`] excesses relative to
+/// the cap, non-finite ones first), each with its cap.
 fn points_above_cap(
     grid: &[Vec<f64>],
     f: &RationalFunction,
     cap_at: &dyn Fn(&[f64]) -> f64,
-) -> (Vec<f64>, Vec<f64>, f64) {
+) -> CapScan {
     let mut found: Vec<(f64, f64, &[f64])> = Vec::new();
-    let mut largest = 0.0_f64;
+    let (mut largest, mut non_finite) = (0.0_f64, 0usize);
     for x in grid {
         let v = f.eval(x);
         let cap = cap_at(x);
         let excess = if v.is_finite() {
+            largest = largest.max(v / cap);
             v / cap
         } else {
+            non_finite += 1;
             f64::INFINITY
         };
-        largest = largest.max(excess);
         if excess > 1.01 {
             found.push((excess, cap, x));
         }
     }
     found.sort_by(|a, b| b.0.total_cmp(&a.0));
     found.truncate(CAP_POINTS_PER_ROUND);
-    let caps = found.iter().map(|p| p.1).collect();
-    let points = found.iter().flat_map(|p| p.2.iter().copied()).collect();
-    (points, caps, largest)
+    CapScan {
+        caps: found.iter().map(|p| p.1).collect(),
+        points: found.iter().flat_map(|p| p.2.iter().copied()).collect(),
+        largest,
+        non_finite,
+    }
 }
 
 /// `data` with `points` added as `[0, cap]` constraints, one cap each.
@@ -858,43 +1013,24 @@ fn fit_channel(
         None => vec![1.0; used.len()],
     };
     let measured_lo = data.lo().to_vec();
+    // The cap: the design's multiple of its peak, else DEFAULT_PEAK_CAP
+    // times the largest upper bound (the peak and its interval).
+    let cap = match (&s.design, &bounds) {
+        (Some(design), Some(b)) => design.peak_cap * b.peak,
+        _ => DEFAULT_PEAK_CAP * data.hi().iter().fold(0.0_f64, |m, &v| m.max(v)),
+    };
     let data = if s.lobe.is_some() {
         divided_by(&data, &factors).map_err(fit_err)?
     } else {
         data
     };
-    let mut report = fit(&data, &s.fit).map_err(fit_err)?;
-    let mut bounds = bounds;
-    if let (Some(design), Some(b)) = (&s.design, bounds.as_mut()) {
-        // Between the cells nothing bounds p / q: check a grid twice as
-        // dense, add the points above the cap as [0, cap] and fit again.
-        let cap = design.peak_cap * b.peak;
-        let coordinates = s.reduction.coordinates;
-        let cap_at = |x: &[f64]| match &s.lobe {
-            Some(lobe) => cap / lobe.factors_at(coordinates.angles(x), s.mode)[c],
-            None => cap,
-        };
-        let grid = cap_grid(&data, &s.reduction);
-        let mut augmented = data.clone();
-        for round in 0..=design.cap_rounds {
-            let (more, caps, largest) = points_above_cap(&grid, &report.function, &cap_at);
-            b.cap_excess = largest;
-            if caps.is_empty() || round == design.cap_rounds {
-                break;
-            }
-            b.cap_points += caps.len();
-            augmented = with_cap_points(&augmented, more, &caps).map_err(fit_err)?;
-            // The added constraints only shrink the feasible set: the
-            // smallest budget cannot fall, so the search starts at this one.
-            let budget = report.n_p + report.n_q;
-            let (_, max_coeffs) = s.fit.coeff_range();
-            let warm = s
-                .fit
-                .clone()
-                .with_coeff_range(budget.min(max_coeffs), max_coeffs);
-            report = fit(&augmented, &warm.map_err(fit_err)?).map_err(fit_err)?;
-        }
-    }
+    let report = fit(&data, &s.fit).map_err(fit_err)?;
+    let (report, cap_check) = if cap > 0.0 && cap.is_finite() {
+        let (r, k) = hold_below_cap(report, &data, s, c, cap).map_err(fit_err)?;
+        (r, Some(k))
+    } else {
+        (report, None)
+    };
     let f = report.function.clone();
     let errors = SampleErrors::of(samples, c, &used, rel_tol, &measured_lo, |k| {
         f.eval(data.point(k)) * factors[k]
@@ -918,6 +1054,7 @@ fn fit_channel(
         seconds: report.seconds,
         interval_scale: report.interval_scale,
         bounds,
+        cap: cap_check,
         // The baselines divide by the value: plain relative intervals only
         // (the fidelity benchmark compares the analytic peer by its renders).
         baselines: if s.baselines && s.design.is_none() && s.mode.is_rgb() && s.lobe.is_none() {
@@ -935,6 +1072,73 @@ fn fit_channel(
         },
     };
     Ok((f, rep))
+}
+
+/// The dense cap check ([`BrdfFitSettings::with_cap_rounds`]): between the
+/// samples nothing bounds `p / q`, so the fit is evaluated on a grid of its
+/// whole evaluation domain twice as dense as the data; the points above
+/// `cap` (divided by the lobe, with one) are added to `data` as `[0, cap]`
+/// and the data fitted again, at most `cap_rounds` times. When the first fit
+/// needed wider intervals, the refits keep the data at that width and widen
+/// nothing more (widening the cap points would lift the cap). A refit with
+/// no feasible fit within the budget keeps the fit before it (the check
+/// then reports the excess).
+fn hold_below_cap(
+    mut report: rational_core::FitReport,
+    data: &IntervalData,
+    s: &BrdfFitSettings,
+    c: usize,
+    cap: f64,
+) -> Result<(rational_core::FitReport, CapCheck), rational_core::FitError> {
+    let coordinates = s.reduction.coordinates;
+    let cap_at = |x: &[f64]| match &s.lobe {
+        Some(lobe) => cap / lobe.factors_at(coordinates.angles(x), s.mode)[c],
+        None => cap,
+    };
+    let grid = cap_grid(data, &s.reduction);
+    let mut check = CapCheck {
+        cap,
+        grid_points: grid.len(),
+        points: 0,
+        refits: 0,
+        largest: 0.0,
+        non_finite: 0,
+    };
+    // The intervals the first fit was accepted at.
+    let scale = report.interval_scale;
+    let accepted = (scale > 1.0).then(|| data.widened(scale));
+    let mut augmented: Option<IntervalData> = None;
+    loop {
+        let scan = points_above_cap(&grid, &report.function, &cap_at);
+        check.largest = scan.largest;
+        check.non_finite = scan.non_finite;
+        if scan.caps.is_empty() || check.refits == s.cap_rounds {
+            break;
+        }
+        let so_far = augmented.as_ref().or(accepted.as_ref()).unwrap_or(data);
+        let more = with_cap_points(so_far, scan.points, &scan.caps)?;
+        // The added constraints only shrink the feasible set: the smallest
+        // budget cannot fall, so the search starts at this one.
+        let budget = report.n_p + report.n_q;
+        let (_, max_coeffs) = s.fit.coeff_range();
+        let warm = s
+            .fit
+            .clone()
+            .with_coeff_range(budget.min(max_coeffs), max_coeffs)?
+            .with_widening(2.0, 0)?;
+        match fit(&more, &warm) {
+            Ok(r) => {
+                report = r;
+                report.interval_scale = scale;
+            }
+            Err(rational_core::FitError::NoFeasibleFit { .. }) => break,
+            Err(e) => return Err(e),
+        }
+        check.points += scan.caps.len();
+        check.refits += 1;
+        augmented = Some(more);
+    }
+    Ok((report, check))
 }
 
 #[cfg(test)]
@@ -982,6 +1186,32 @@ mod tests {
     }
 
     #[test]
+    fn the_cap_grid_of_a_cut_slice_stays_within_the_cut_and_reaches_it() {
+        let reduction = Reduction::default().with_resolution(20, 20);
+        let samples = reduction.sample(&crate::Lambert {
+            albedo: [0.5, 0.5, 0.5],
+        });
+        let (data, _) = samples.channel(0, 0.1, 1e-2).unwrap();
+        let grid = cap_grid(&data, &reduction);
+        let cut = reduction.max_elevation_deg;
+        let elevations: Vec<f64> = grid
+            .iter()
+            .map(|x| crate::design::max_elevation_deg(reduction.coordinates.angles(x)))
+            .collect();
+        assert!(
+            elevations.iter().all(|&e| e <= cut + 1e-6),
+            "beyond the cut"
+        );
+        // Every line of theta_h below the cut ends on it: 40 lines (twice
+        // the data's 20), less those at or beyond 70 degrees.
+        let on_cut = elevations
+            .iter()
+            .filter(|&&e| (e - cut).abs() < 1e-6)
+            .count();
+        assert!(on_cut >= 30, "{on_cut} points on the cut");
+    }
+
+    #[test]
     fn points_above_cap_keep_the_largest_excesses_and_report_the_largest_ratio() {
         // p(x) = 5 + 5 T1(x / 5 - 1) = x on [0, 10], q = 1.
         let domain = rational_core::Domain::new(vec![0.0], vec![10.0]).unwrap();
@@ -989,10 +1219,11 @@ mod tests {
             rational_core::Basis::new(rational_core::BasisFamily::Chebyshev, domain, 2).unwrap();
         let f = RationalFunction::new(basis, vec![5.0, 5.0], vec![1.0]).unwrap();
         let grid: Vec<Vec<f64>> = (0..10).map(|i| vec![i as f64]).collect();
-        let (points, caps, largest) = points_above_cap(&grid, &f, &|_| 4.0);
+        let scan = points_above_cap(&grid, &f, &|_| 4.0);
         // f(x) = x exceeds 4.04 at x = 5..9; the largest ratio is 9 / 4.
-        assert_eq!(points, vec![9.0, 8.0, 7.0, 6.0, 5.0]);
-        assert_eq!(caps, vec![4.0; 5]);
-        assert!((largest - 2.25).abs() < 1e-12);
+        assert_eq!(scan.points, vec![9.0, 8.0, 7.0, 6.0, 5.0]);
+        assert_eq!(scan.caps, vec![4.0; 5]);
+        assert!((scan.largest - 2.25).abs() < 1e-12);
+        assert_eq!(scan.non_finite, 0);
     }
 }

@@ -46,12 +46,14 @@ pub use alta_rational::{AltaChannel, AltaRational};
 pub use analytic::{schlick, AshikhminShirley, BlinnPhong, CookTorranceGgx, Lambert};
 pub use colour::{luminance, ColourMode, LUMINANCE_WEIGHTS};
 pub use compact::{CompactBrdf, CompactChannel};
-pub use design::{estimate_noise, ChannelBounds, NoiseEstimate, PerceptualBounds, MAX_CAP_ROUNDS};
+pub use design::{
+    estimate_noise, ChannelBounds, NoiseEstimate, PerceptualBounds, DEFAULT_PEAK_CAP,
+};
 pub use downsample::DownsampledTable;
 pub use error::{write_atomic, BrdfError};
 pub use fitting::{
     assemble_channels, fit_brdf, fit_samples, fit_samples_channel, BrdfFitReport, BrdfFitSettings,
-    ChannelReport, FittedBrdf,
+    CapCheck, ChannelReport, FittedBrdf, MAX_CAP_ROUNDS,
 };
 pub use geometry::{
     clamp_elevation, cross, dot, from_spherical, normalize, rotate, to_spherical, HalfDiff, Vec3,

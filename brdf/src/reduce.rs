@@ -354,10 +354,15 @@ impl Samples {
 
     /// Interval data of channel `c`: half-width `max(t |v|, floor * median)`
     /// (relative intervals with a noise floor, `median` the channel's median
-    /// fitted value, robust to specular peaks; `floor = 0` gives purely
-    /// relative intervals), from the
-    /// non-grazing cells with a positive, finite value (missing cells and
-    /// non-positive values are never fitted); also returns the rows used.
+    /// positive value, robust to specular peaks; `floor = 0` gives purely
+    /// relative intervals), from the non-grazing cells with a finite value;
+    /// also returns the rows used. A cell measured at zero or below (noise
+    /// about a dark value, or a colour outside the RGB gamut) has no
+    /// relative bound; it gets `[-median, median]`, so the fit is no brighter
+    /// than the channel's typical value where the table is dark instead of
+    /// free there, without having to follow the edge of the dark region
+    /// down to the noise floor. A positive cell whose spread reaches zero is
+    /// left out.
     ///
     /// # Errors
     /// No usable sample, or invalid values.
@@ -367,26 +372,51 @@ impl Samples {
         t: f64,
         floor: f64,
     ) -> Result<(rational_core::IntervalData, Vec<usize>), rational_core::FitError> {
+        let finite = |r: &SampleRow| {
+            !r.grazing && r.value[c].is_finite() && r.lo[c].is_finite() && r.hi[c].is_finite()
+        };
+        let mut sorted: Vec<f64> = self
+            .rows
+            .iter()
+            .filter(|r| finite(r) && r.value[c] > 0.0)
+            .map(|r| r.value[c])
+            .collect();
+        sorted.sort_by(f64::total_cmp);
+        let median = sorted.get(sorted.len() / 2).copied().unwrap_or(0.0);
+        let h = floor * median;
         let used: Vec<usize> = (0..self.rows.len())
             .filter(|&i| {
                 let r = &self.rows[i];
-                !r.grazing && r.value[c].is_finite() && r.value[c] > 0.0 && r.lo[c] > 0.0
+                let dark_bounded = r.value[c] <= 0.0 && median > 0.0;
+                finite(r) && (dark_bounded || (r.value[c] > 0.0 && r.lo[c] > 0.0))
             })
             .collect();
-        let mut sorted: Vec<f64> = used.iter().map(|&i| self.rows[i].value[c]).collect();
-        sorted.sort_by(f64::total_cmp);
-        let median = sorted.get(sorted.len() / 2).copied().unwrap_or(0.0);
         let points = used
             .iter()
             .flat_map(|&i| self.rows[i].point.clone())
             .collect();
+        let dark = |r: &SampleRow| r.value[c] <= 0.0;
         let lo = used
             .iter()
-            .map(|&i| self.rows[i].lo[c] - (t * self.rows[i].lo[c]).max(floor * median))
+            .map(|&i| {
+                let r = &self.rows[i];
+                if dark(r) {
+                    -median
+                } else {
+                    r.lo[c] - (t * r.lo[c]).max(h)
+                }
+            })
             .collect();
         let hi = used
             .iter()
-            .map(|&i| self.rows[i].hi[c] + (t * self.rows[i].hi[c]).max(floor * median))
+            .map(|&i| {
+                let r = &self.rows[i];
+                if dark(r) {
+                    median
+                } else {
+                    r.hi[c] + (t * r.hi[c]).max(h)
+                }
+            })
             .collect();
         let values = used.iter().map(|&i| self.rows[i].value[c]).collect();
         let data =

@@ -140,3 +140,67 @@ fn channels_fitted_apart_assemble_into_the_joint_fit() {
     let err = brdf::assemble_channels(&samples, "ggx", &s, two).unwrap_err();
     assert!(err.to_string().contains("2 channels"), "{err}");
 }
+
+/// GGX whose green channel is measured at zero, or a little below (noise
+/// around a dark value), wherever `theta_d` exceeds 40 degrees.
+struct DarkGreen(CookTorranceGgx);
+
+impl Brdf for DarkGreen {
+    fn eval(&self, wi: brdf::Vec3, wo: brdf::Vec3) -> [f64; 3] {
+        let mut v = self.0.eval(wi, wo);
+        let cos_d = (wi[0] * wo[0] + wi[1] * wo[1] + wi[2] * wo[2]).clamp(-1.0, 1.0);
+        // theta_d is half the angle between the directions.
+        if cos_d.acos() / 2.0 > 40f64.to_radians() {
+            v[1] = if wi[0] > 0.0 { 0.0 } else { -1e-4 };
+        }
+        v
+    }
+    fn name(&self) -> String {
+        "GGX with a dark green".into()
+    }
+}
+
+#[test]
+fn plain_intervals_bound_dark_cells_and_every_fit_stays_under_its_cap() {
+    let m = DarkGreen(CookTorranceGgx {
+        kd: [0.05, 0.1, 0.3],
+        f0: [0.04; 3],
+        alpha: 0.3,
+    });
+    let r = Reduction::default().with_resolution(30, 30);
+    let samples = r.sample(&m);
+    let (data, used) = samples.channel(1, 0.05, 1e-2).unwrap();
+    let dark: Vec<usize> = (0..used.len())
+        .filter(|&k| samples.rows[used[k]].value[1] <= 0.0)
+        .collect();
+    assert!(dark.len() > 50, "{} dark cells", dark.len());
+    // Every dark cell is fitted, within the channel's median of zero.
+    let mut positive: Vec<f64> = samples
+        .rows
+        .iter()
+        .filter(|r| !r.grazing && r.value[1] > 0.0)
+        .map(|r| r.value[1])
+        .collect();
+    positive.sort_by(f64::total_cmp);
+    let median = positive[positive.len() / 2];
+    for &k in &dark {
+        assert_eq!((data.lo()[k], data.hi()[k]), (-median, median));
+    }
+    // The floor does not matter to them.
+    let (_, used_no_floor) = samples.channel(1, 0.05, 0.0).unwrap();
+    assert_eq!(used_no_floor, used);
+
+    let (fitted, report) = fit_brdf(&m, &settings(r)).unwrap();
+    for c in &report.channels {
+        let k = c.cap.expect("every fit is cap-checked");
+        assert!(k.grid_points > 30 * 30, "{k:?}");
+        assert!(k.held(), "{report}");
+    }
+    // The fit is no brighter than the median where the table is dark.
+    let scale = report.channels[1].interval_scale;
+    for &k in &dark {
+        let x = data.point(k);
+        let g = fitted.eval_coords(x)[1];
+        assert!(g.abs() <= median * scale * (1.0 + 1e-9), "{g} at {x:?}");
+    }
+}

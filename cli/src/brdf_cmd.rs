@@ -90,10 +90,10 @@ pub struct FitArgs {
     /// cell of the hemisphere constrained (no elevation or grazing cut).
     #[arg(long)]
     perceptual: bool,
-    /// Perceptual fits (`--perceptual`, `--target-de`): at most this many
-    /// refits that add the points where the fit exceeds 1.5x the table's
-    /// peak on a dense grid of the whole hemisphere (0: check and report
-    /// only). The report gives the largest excess left.
+    /// At most this many refits that add the points where the fit exceeds
+    /// 1.5x the channel's largest upper bound (its peak) on a dense grid of
+    /// the whole domain it is evaluated on (0: check and report only). The
+    /// report gives the largest excess left. MERL, RGL and Cornell fits.
     #[arg(long, default_value_t = 2, value_parser = crate::args::cap_rounds)]
     cap_rounds: usize,
     /// What the three fitted functions are: rgb (one per channel) or
@@ -209,14 +209,13 @@ pub fn fit_to_json(args: &FitArgs) -> Result<serde_json::Value> {
         .with_rel_tol(args.rel_tol)?
         .with_noise_floor(args.noise_floor)?
         .with_colour_mode(args.colour.unwrap_or_default())
+        .with_cap_rounds(args.cap_rounds)?
         .with_fit_settings(fit_settings);
     if args.perceptual {
         let whole = settings.reduction().whole_hemisphere();
-        settings = settings.with_reduction(whole).with_design(
-            brdf::PerceptualBounds::default()
-                .with_rel_tol(args.rel_tol)?
-                .with_cap_rounds(args.cap_rounds)?,
-        );
+        settings = settings
+            .with_reduction(whole)
+            .with_design(brdf::PerceptualBounds::default().with_rel_tol(args.rel_tol)?);
     }
     let (fitted, report, render) = if args.format == "cornell" {
         let data = ScatteredBrdf::read_cornell(&args.material)?;
@@ -317,7 +316,8 @@ fn run_fit_target(
         .with_baselines(false)
         .with_colour_mode(args.colour.unwrap_or(brdf::ColourMode::LuminanceChroma))
         .with_lobe(args.lobe.then(|| brdf::Lobe::fit(material.as_ref())))
-        .with_design(brdf::PerceptualBounds::default().with_cap_rounds(args.cap_rounds)?)
+        .with_design(brdf::PerceptualBounds::default())
+        .with_cap_rounds(args.cap_rounds)?
         .with_fit_settings(fit_settings);
     let mode = match args.dims {
         None => render_cpu::fidelity::TargetReduction::Auto,

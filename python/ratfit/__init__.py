@@ -151,7 +151,7 @@ def fit_brdf(path: str, format: Optional[str] = None, **options: Any) -> FittedM
             with its defaults: ``dims`` (2 or 3), ``resolution``
             (theta_h, theta_d[, phi_d] bins), ``rel_tol`` (0.05),
             ``perceptual``, ``cap_rounds`` (refits of the dense check that
-            keeps perceptual fits under 1.5x the table's peak; default 2),
+            keeps every fit under 1.5x the channel's peak; default 2),
             ``colour`` ("rgb" or "luminance-chroma"),
             ``lobe`` (an analytic GGX lobe times the rational functions),
             ``max_coeffs``, ``search``, ``target_de`` (the smallest fit whose

@@ -365,10 +365,10 @@ impl BrdfOptions {
             .map_err(|e| crate::errors::brdf_error(py, e))?
             .with_colour_mode(self.colour_mode()?)
             .with_lobe(lobe)
-            .with_fit_settings(fit);
-        let design = brdf::PerceptualBounds::default()
             .with_cap_rounds(self.cap_rounds)
-            .map_err(|e| crate::errors::brdf_error(py, e))?;
+            .map_err(|e| crate::errors::brdf_error(py, e))?
+            .with_fit_settings(fit);
+        let design = brdf::PerceptualBounds::default();
         if self.target_de.is_some() {
             s = s.with_baselines(false).with_design(design);
         } else if self.perceptual {

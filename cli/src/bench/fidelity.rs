@@ -246,8 +246,14 @@ mod rational_mode {
         let caps: Vec<String> = report
             .channels
             .iter()
-            .filter_map(|c| c.bounds.as_ref().map(|b| (c.channel, b.cap_excess)))
-            .map(|(ch, x)| format!("{ch} {x:.2}"))
+            .filter_map(|c| c.cap.map(|k| (c.channel, k)))
+            .map(|(ch, k)| {
+                if k.non_finite > 0 {
+                    format!("{ch} {:.2} ({} not finite)", k.largest, k.non_finite)
+                } else {
+                    format!("{ch} {:.2}", k.largest)
+                }
+            })
             .collect();
         format!(
             "splits {}; {}{}",
