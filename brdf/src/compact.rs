@@ -4,7 +4,7 @@
 //! the same order.
 
 use crate::colour::ColourMode;
-use crate::fitting::FittedBrdf;
+use crate::fitted::FittedBrdf;
 use crate::geometry::Vec3;
 use crate::lobe::LobeF32;
 use crate::reduce::{Coordinates, Reduction};

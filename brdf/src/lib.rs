@@ -25,6 +25,7 @@
 mod alta_rational;
 mod analytic;
 pub mod baseline;
+mod cap;
 mod colour;
 pub mod compact;
 pub mod compact_batch;
@@ -32,6 +33,8 @@ mod design;
 mod downsample;
 mod error;
 pub mod fidelity;
+mod fit_report;
+mod fitted;
 mod fitting;
 mod geometry;
 mod lobe;
@@ -44,6 +47,7 @@ pub mod shader;
 
 pub use alta_rational::{AltaChannel, AltaRational};
 pub use analytic::{schlick, AshikhminShirley, BlinnPhong, CookTorranceGgx, Lambert};
+pub use cap::CapCheck;
 pub use colour::{luminance, ColourMode, LUMINANCE_WEIGHTS};
 pub use compact::{CompactBrdf, CompactChannel};
 pub use design::{
@@ -51,9 +55,10 @@ pub use design::{
 };
 pub use downsample::DownsampledTable;
 pub use error::{write_atomic, BrdfError};
+pub use fit_report::{BrdfFitReport, ChannelReport};
+pub use fitted::FittedBrdf;
 pub use fitting::{
-    assemble_channels, fit_brdf, fit_samples, fit_samples_channel, BrdfFitReport, BrdfFitSettings,
-    CapCheck, ChannelReport, FittedBrdf, MAX_CAP_ROUNDS,
+    assemble_channels, fit_brdf, fit_samples, fit_samples_channel, BrdfFitSettings, MAX_CAP_ROUNDS,
 };
 pub use geometry::{
     clamp_elevation, cross, dot, from_spherical, normalize, rotate, to_spherical, HalfDiff, Vec3,

@@ -1,0 +1,188 @@
+//! What a BRDF fit reports: per channel, error next to cost.
+
+use crate::baseline::BaselineReport;
+use crate::cap::CapCheck;
+use crate::design::{ChannelBounds, PerceptualBounds};
+use crate::lobe::Lobe;
+use crate::reduce::Reduction;
+use serde::{Deserialize, Serialize};
+use std::fmt;
+
+/// Figures of one channel's fit.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ChannelReport {
+    /// `r`, `g` or `b`.
+    pub channel: char,
+    /// Numerator coefficients.
+    pub n_p: usize,
+    /// Denominator coefficients.
+    pub n_q: usize,
+    /// Coefficient bytes as f32.
+    pub bytes_f32: usize,
+    /// Verified inside every interval in f64.
+    pub verified: bool,
+    /// Depth of the chosen P(n_p, n_q) solution.
+    pub depth: f64,
+    /// Samples fitted.
+    pub samples: usize,
+    /// Fitted samples above the noise floor (relative intervals).
+    pub samples_above_floor: usize,
+    /// The noise floor in the channel's units.
+    pub noise_floor_abs: f64,
+    /// Max relative error on the fitted samples above the noise floor.
+    pub max_rel: f64,
+    /// Mean relative error on the fitted samples above the noise floor.
+    pub mean_rel: f64,
+    /// Max relative error on every valid sample, grazing ones included
+    /// (evaluated with `theta_d` clamped to the fitted range).
+    pub max_rel_all: f64,
+    /// Mean relative error on every valid sample.
+    pub mean_rel_all: f64,
+    /// RMSE on the fitted samples.
+    pub rmse: f64,
+    /// RMSE weighted by `cos theta_i cos theta_o` (normalised weights).
+    pub cos_rmse: f64,
+    /// Fit time (the sweep) in seconds.
+    pub seconds: f64,
+    /// Factor applied to every interval half-width when the requested ones
+    /// had no fit within the budget (1 when none was needed; see
+    /// `FitSettings::with_widening`).
+    #[serde(default = "unit_scale")]
+    pub interval_scale: f64,
+    /// What the perceptual design used (when in use).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub bounds: Option<ChannelBounds>,
+    /// What the dense cap check found (absent from files written before
+    /// every fit had one).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cap: Option<CapCheck>,
+    /// Baselines on the same samples (when enabled).
+    pub baselines: Vec<BaselineReport>,
+}
+
+fn unit_scale() -> f64 {
+    1.0
+}
+
+/// The report of [`crate::fit_brdf`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct BrdfFitReport {
+    /// Source material.
+    pub material: String,
+    /// Sampling used.
+    pub reduction: Reduction,
+    /// Relative half-width of the intervals.
+    pub rel_tol: f64,
+    /// Smallest half-width as a fraction of each channel's median value.
+    pub noise_floor: f64,
+    /// The perceptual design, when it chose the intervals (then `rel_tol`
+    /// is its relative half-width where the light is visible).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub design: Option<PerceptualBounds>,
+    /// Degree weights of the basis order (empty: the total-degree order).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub degree_weights: Vec<u16>,
+    /// The lobe the functions multiply, when in use.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lobe: Option<Lobe>,
+    /// Per channel.
+    pub channels: Vec<ChannelReport>,
+    /// Total wall time, sampling included.
+    pub seconds: f64,
+}
+
+impl fmt::Display for BrdfFitReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let r = &self.reduction;
+        writeln!(
+            f,
+            "{}: {:?} in {:?} coordinates, theta_d <= {} deg, intervals +-{}% (noise floor {:e} of the median)",
+            self.material,
+            r.kind,
+            r.coordinates,
+            r.max_theta_d_deg,
+            self.rel_tol * 100.0,
+            self.noise_floor
+        )?;
+        if let Some(d) = &self.design {
+            writeln!(
+                f,
+                "  perceptual intervals: +-{}% where visible, floor {}% of the peak of f cos_i cos_o, >= {} noise deviations, capped at {}x the peak; every cell of the hemisphere",
+                d.rel_tol * 100.0,
+                d.visibility * 100.0,
+                d.noise_factor,
+                d.peak_cap
+            )?;
+            for c in &self.channels {
+                if let Some(b) = &c.bounds {
+                    writeln!(
+                        f,
+                        "  {}   peak {:.4e}, noise {:.2}% (estimated), cells bound by perception / floor / noise: {} / {} / {}",
+                        c.channel, b.peak, b.noise * 100.0, b.perceptual_cells, b.floor_cells, b.noise_cells,
+                    )?;
+                }
+            }
+        }
+        for c in &self.channels {
+            if let Some(k) = &c.cap {
+                writeln!(f, "  {}   {k}", c.channel)?;
+            }
+        }
+        if let Some(l) = &self.lobe {
+            writeln!(
+                f,
+                "  lobe times rational: the functions fit the table divided by Cook-Torrance GGX (kd {:.4?}, f0 {:.4?}, alpha {:.4}); errors below are of the product",
+                l.kd, l.f0, l.alpha
+            )?;
+        }
+        if !self.degree_weights.is_empty() {
+            let w: Vec<String> = self.degree_weights.iter().map(u16::to_string).collect();
+            writeln!(f, "  basis order: degree weights {}", w.join(","))?;
+        }
+        writeln!(
+            f,
+            "  ch  n_p n_q  bytes  samples (>floor)  verified   max rel  mean rel  max rel*  mean rel*      RMSE   cos-RMSE    time s"
+        )?;
+        for c in &self.channels {
+            writeln!(
+                f,
+                "  {}   {:>3} {:>3} {:>6} {:>7} ({:>7})  {:>8} {:>9.3e} {:>9.3e} {:>9.3e} {:>10.3e} {:>9.3e} {:>10.3e} {:>9.3}",
+                c.channel,
+                c.n_p,
+                c.n_q,
+                c.bytes_f32,
+                c.samples,
+                c.samples_above_floor,
+                if c.verified { "yes" } else { "NO" },
+                c.max_rel,
+                c.mean_rel,
+                c.max_rel_all,
+                c.mean_rel_all,
+                c.rmse,
+                c.cos_rmse,
+                c.seconds
+            )?;
+        }
+        for c in self.channels.iter().filter(|c| c.interval_scale > 1.0) {
+            writeln!(
+                f,
+                "  {}   no fit within the budget at the requested intervals; fitted with every interval widened x{} (on a log scale)",
+                c.channel, c.interval_scale
+            )?;
+        }
+        for c in &self.channels {
+            for b in &c.baselines {
+                writeln!(
+                    f,
+                    "  {}   baseline {:<58} max rel {:>9.3e}  mean rel {:>9.3e}  {:>7.3} s",
+                    c.channel, b.name, b.max_rel, b.mean_rel, b.seconds
+                )?;
+            }
+        }
+        write!(
+            f,
+            "  relative errors over samples above the noise floor; * also grazing ones (theta_d clamped to the cut)\n  total wall time {:.3} s",
+            self.seconds
+        )
+    }
+}

@@ -1,0 +1,180 @@
+//! A fitted BRDF: the three rational functions, what they were fitted to,
+//! and their evaluation.
+
+use crate::colour::ColourMode;
+use crate::geometry::{HalfDiff, Vec3};
+use crate::lobe::Lobe;
+use crate::reduce::Reduction;
+use crate::{Brdf, BrdfError};
+use rational_core::RationalFunction;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+/// A fitted isotropic BRDF: one rational function per RGB channel over the
+/// reduction's coordinates. Deserialisation checks it
+/// ([`FittedBrdf::validate`]): a fit file is input like any other.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "FittedSpec")]
+pub struct FittedBrdf {
+    /// What the functions were fitted to.
+    pub reduction: Reduction,
+    /// Red, green and blue, or what `mode` says.
+    pub channels: Vec<RationalFunction>,
+    /// What the three functions are (RGB unless stated).
+    #[serde(default, skip_serializing_if = "ColourMode::is_rgb")]
+    pub mode: ColourMode,
+    /// The analytic lobe each function multiplies (the lobe-times-rational
+    /// representation), when there is one.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lobe: Option<Lobe>,
+    /// Source material.
+    pub name: String,
+}
+
+/// The serialised form of a [`FittedBrdf`], checked on the way in.
+#[derive(Deserialize)]
+struct FittedSpec {
+    reduction: Reduction,
+    channels: Vec<RationalFunction>,
+    #[serde(default)]
+    mode: ColourMode,
+    #[serde(default)]
+    lobe: Option<Lobe>,
+    name: String,
+}
+
+impl TryFrom<FittedSpec> for FittedBrdf {
+    type Error = BrdfError;
+    fn try_from(s: FittedSpec) -> Result<Self, BrdfError> {
+        let f = Self {
+            reduction: s.reduction,
+            channels: s.channels,
+            mode: s.mode,
+            lobe: s.lobe,
+            name: s.name,
+        };
+        f.validate()?;
+        Ok(f)
+    }
+}
+
+impl FittedBrdf {
+    /// Checks every invariant the evaluators index by: three channels, each
+    /// a function of the reduction's coordinates, and a valid reduction
+    /// (each function's coefficients were checked when it was built).
+    ///
+    /// # Errors
+    /// The first invariant broken, named.
+    pub fn validate(&self) -> Result<(), BrdfError> {
+        let bad = |reason: String| BrdfError::Invalid {
+            name: "fitted BRDF",
+            reason,
+        };
+        self.reduction.validate()?;
+        if self.channels.len() != 3 {
+            return Err(bad(format!(
+                "{} channels (three functions expected: {})",
+                self.channels.len(),
+                match self.mode {
+                    ColourMode::Rgb => "red, green, blue",
+                    ColourMode::LuminanceChroma => "luminance, r/Y, b/Y",
+                }
+            )));
+        }
+        let dims = self.reduction.dims();
+        for (k, c) in self.channels.iter().enumerate() {
+            if c.basis().dim() != dims {
+                return Err(bad(format!(
+                    "channel {k} is a function of {} coordinates; the {:?} reduction has {dims}",
+                    c.basis().dim(),
+                    self.reduction.kind
+                )));
+            }
+        }
+        Ok(())
+    }
+
+    /// Fitting coordinates of a direction pair: `phi_d` folded by
+    /// reciprocity, `theta_d` clamped to the fitted range (no extrapolation
+    /// into the grazing cut).
+    pub fn coordinates(&self, wi: Vec3, wo: Vec3) -> Vec<f64> {
+        let hd = HalfDiff::from_directions(wi, wo);
+        let td = hd.theta_d.min(self.reduction.max_theta_d_deg.to_radians());
+        self.reduction
+            .coordinates
+            .map(hd.theta_h, td, hd.folded_phi_d(), self.reduction.dims())
+    }
+
+    /// Evaluates every channel in f64 and makes RGB by the colour mode;
+    /// negative values (possible only between samples) are clamped to zero.
+    /// A fit with a lobe needs the directions: see [`Brdf::eval`].
+    pub fn eval_coords(&self, x: &[f64]) -> [f64; 3] {
+        self.mode
+            .combine([0, 1, 2].map(|c| self.channels[c].eval(x)))
+    }
+
+    /// The functions' values at a direction pair above the surface (the
+    /// lobe's factors applied), before the colour mode makes RGB.
+    fn functions_at(&self, wi: Vec3, wo: Vec3) -> [f64; 3] {
+        let x = self.coordinates(wi, wo);
+        let v = [0, 1, 2].map(|c| self.channels[c].eval(&x));
+        match &self.lobe {
+            Some(lobe) => {
+                let f = lobe.factors(wi, wo, self.mode);
+                [0, 1, 2].map(|c| v[c] * f[c])
+            }
+            None => v,
+        }
+    }
+
+    /// Evaluates the fit at many direction pairs in parallel.
+    pub fn eval_many(&self, pairs: &[(Vec3, Vec3)]) -> Vec<[f64; 3]> {
+        pairs
+            .par_iter()
+            .map(|&(wi, wo)| self.eval(wi, wo))
+            .collect()
+    }
+
+    /// Total coefficients over the channels.
+    pub fn coefficients(&self) -> usize {
+        self.channels
+            .iter()
+            .map(|f| f.split().0 + f.split().1)
+            .sum()
+    }
+
+    /// Bytes of all coefficients as f32, and the lobe's seven parameters
+    /// when there is one.
+    pub fn byte_size_f32(&self) -> usize {
+        self.channels
+            .iter()
+            .map(RationalFunction::byte_size_f32)
+            .sum::<usize>()
+            + if self.lobe.is_some() { 28 } else { 0 }
+    }
+}
+
+impl Brdf for FittedBrdf {
+    /// The fit at `(wi, wo)`; beyond an elevation cut of the reduction,
+    /// directions are moved to the cut ([`crate::clamp_elevation`]), where
+    /// the fit was constrained.
+    fn eval(&self, wi: Vec3, wo: Vec3) -> [f64; 3] {
+        if wi[2] <= 0.0 || wo[2] <= 0.0 {
+            return [0.0; 3];
+        }
+        let cut = self.reduction.max_elevation_deg;
+        if cut < 90.0 {
+            let (sin_cut, cos_cut) = cut.to_radians().sin_cos();
+            let (wi, wo) = (
+                crate::geometry::clamp_elevation(wi, cos_cut, sin_cut),
+                crate::geometry::clamp_elevation(wo, cos_cut, sin_cut),
+            );
+            return self.mode.combine(self.functions_at(wi, wo));
+        }
+        self.mode.combine(self.functions_at(wi, wo))
+    }
+
+    fn name(&self) -> String {
+        format!("rational fit of {}", self.name)
+    }
+}
