@@ -77,4 +77,6 @@ pub use prepare::{
 pub use scene::{
     IntegratorKind, MaterialDescription, SamplePattern, SamplerKind, SceneDescription,
 };
-pub use world::{ClosedForm, FitInDomain, IntegratorSettings, Object, PreparedMaterial, Scene};
+pub use world::{
+    ClosedForm, FitInDomain, IntegratorSettings, Object, PreparedMaterial, Scene, F32_TOLERANCE,
+};

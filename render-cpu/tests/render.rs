@@ -560,6 +560,7 @@ fn many_lights_evaluate_a_fit_as_one_light_at_a_time_does() {
         .with_reduction(brdf::Reduction::default().with_resolution(20, 20));
     let (fit, _) = brdf::fit_brdf(&truth, &settings).unwrap();
     let f = render_cpu::FitInDomain::new(fit);
+    assert!(f.uses_f32(), "f32 differs by {}", f.f32_error());
     let wo = brdf::from_spherical(0.7, 0.3);
     // 130 directions: two full blocks and a short one; a few below the horizon.
     let wi: Vec<[f64; 3]> = (0..130)
@@ -576,4 +577,45 @@ fn many_lights_evaluate_a_fit_as_one_light_at_a_time_does() {
             );
         }
     }
+}
+
+#[test]
+fn a_fit_whose_f32_form_loses_its_digits_is_evaluated_in_f64() {
+    use brdf::Brdf;
+    use rational_core::{Basis, BasisFamily, Domain, RationalFunction};
+    // q = 1 - (1 - 1e-9) T1(x0) on a box whose x0 ends at the 70-degree cut:
+    // at the cut q is 1e-9 in f64, and rounding in f32 (1 - 1e-9 is 1)
+    // leaves only the error of the coordinates.
+    let cut = (70.0_f64 / 90.0).sqrt();
+    let domain = Domain::new(vec![0.0, 0.0], vec![cut, 1.4]).unwrap();
+    let basis = Basis::new(BasisFamily::Chebyshev, domain, 3).unwrap();
+    let t1 = (0..3).find(|&j| basis.multi_index(j) == [1, 0]).unwrap();
+    let mut q = vec![0.0; 3];
+    q[0] = 1.0;
+    q[t1] = -(1.0 - 1e-9);
+    let channel = RationalFunction::new(basis.clone(), vec![1e-9], q).unwrap();
+    let fit = brdf::FittedBrdf {
+        reduction: brdf::Reduction::default(),
+        channels: vec![channel.clone(), channel.clone(), channel],
+        mode: brdf::ColourMode::Rgb,
+        lobe: None,
+        name: "nearly cancelling".into(),
+    };
+    fit.validate().unwrap();
+    let f = render_cpu::FitInDomain::new(fit.clone());
+    assert!(!f.uses_f32(), "f32 differs by {}", f.f32_error());
+    // Both directions at the cut, mirror pair: theta_h at the box's end.
+    let w = brdf::from_spherical(70f64.to_radians(), 0.0);
+    let v = f.eval(w, w);
+    assert!(v[0].is_finite() && (v[0] - fit.eval(w, w)[0]).abs() <= 1e-12 * v[0]);
+    // The f32 form is nowhere near it there.
+    let compact = f.compact().eval(w.map(|v| v as f32), w.map(|v| v as f32));
+    let off = (f64::from(compact[0]) / v[0] - 1.0).abs();
+    assert!(off.is_nan() || off > 0.5, "{compact:?} against {v:?}");
+    let mut out = [[0.0; 3]];
+    f.eval_incident(&[w], w, &mut out);
+    assert!(
+        (0..3).all(|c| (out[0][c] - v[c]).abs() <= 1e-12 * v[c]),
+        "{out:?}"
+    );
 }

@@ -162,6 +162,7 @@ impl MaterialBuilder<'_> {
             domain_note(&fitted)
         );
         let fit = Arc::new(FitInDomain::new(fitted));
+        let d = d + &precision_note(&fit);
         Ok((fit.clone(), bytes, d, key, Some(ClosedForm::Fit(fit))))
     }
 
@@ -258,6 +259,7 @@ impl MaterialBuilder<'_> {
                     start.elapsed().as_secs_f64(),
                 );
                 let fit = Arc::new(FitInDomain::new(fitted));
+                let d = d + &precision_note(&fit);
                 (fit.clone(), bytes, d, key, Some(ClosedForm::Fit(fit)))
             }
             MaterialDescription::Fitted { .. } => self.build_fitted(name, &desc, key, log)?,
@@ -429,4 +431,17 @@ pub(super) fn build_sampler(
         start.elapsed().as_secs_f64(),
     );
     Ok((Arc::new(TabulatedSampler::new(table)), bytes))
+}
+
+/// Says when a fit is evaluated in f64 because its f32 form disagrees.
+fn precision_note(fit: &FitInDomain) -> String {
+    if fit.uses_f32() {
+        String::new()
+    } else {
+        format!(
+            "; evaluated in f64: its f32 form differs by {:.1e} (relative), beyond {:.0e}, and a GPU render of it is not exact",
+            fit.f32_error(),
+            crate::world::F32_TOLERANCE
+        )
+    }
 }
