@@ -82,7 +82,7 @@ impl CompactChannel {
         self.degrees[k]
     }
 
-    fn degrees_of(indices: &[Vec<u16>], dims: usize) -> Vec<usize> {
+    pub(crate) fn degrees_of(indices: &[Vec<u16>], dims: usize) -> Vec<usize> {
         (0..dims)
             .map(|k| indices.iter().map(|i| i[k] as usize).max().unwrap_or(0))
             .collect()
@@ -178,6 +178,14 @@ pub fn half_diff_f32(wi: [f32; 3], wo: [f32; 3]) -> (f32, f32, f32) {
     (theta_h, theta_d, phi_d)
 }
 
+/// A basis's multi-indices in order and its largest degree per coordinate:
+/// what an evaluator of its functions needs besides the domain.
+pub(crate) fn basis_layout(b: &rational_core::Basis) -> (Vec<Vec<u16>>, Vec<usize>) {
+    let indices: Vec<Vec<u16>> = (0..b.len()).map(|j| b.multi_index(j).to_vec()).collect();
+    let degrees = CompactChannel::degrees_of(&indices, b.dim());
+    (indices, degrees)
+}
+
 impl CompactBrdf {
     /// The f32 form of a fit.
     pub fn from_fitted(f: &FittedBrdf) -> Self {
@@ -186,10 +194,9 @@ impl CompactBrdf {
             .iter()
             .map(|r| {
                 let b = r.basis();
-                let indices: Vec<Vec<u16>> =
-                    (0..b.len()).map(|j| b.multi_index(j).to_vec()).collect();
+                let (indices, degrees) = basis_layout(b);
                 CompactChannel {
-                    degrees: CompactChannel::degrees_of(&indices, b.dim()),
+                    degrees,
                     family: b.family(),
                     lower: b.domain().lower.iter().map(|&v| v as f32).collect(),
                     upper: b.domain().upper.iter().map(|&v| v as f32).collect(),

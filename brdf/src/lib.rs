@@ -50,6 +50,7 @@ pub use analytic::{schlick, AshikhminShirley, BlinnPhong, CookTorranceGgx, Lambe
 pub use cap::CapCheck;
 pub use colour::{luminance, ColourMode, LUMINANCE_WEIGHTS};
 pub use compact::{CompactBrdf, CompactChannel};
+pub use compact_batch::BatchedFit;
 pub use design::{
     estimate_noise, ChannelBounds, NoiseEstimate, PerceptualBounds, DEFAULT_PEAK_CAP,
 };

@@ -2,7 +2,7 @@
 
 use brdf::shader::{shader_source, shader_source_named, Language};
 use brdf::{
-    compact::to_f32, fit_brdf, from_spherical, BlinnPhong, BrdfFitSettings, ColourMode,
+    compact::to_f32, fit_brdf, from_spherical, BatchedFit, BlinnPhong, BrdfFitSettings, ColourMode,
     CompactBrdf, CookTorranceGgx, Coordinates, FittedBrdf, Lobe, Reduction, ReductionKind,
 };
 
@@ -95,6 +95,21 @@ fn pairs(n: usize) -> Vec<([f64; 3], [f64; 3])> {
         .collect()
 }
 
+/// Basis length and condition number of evaluating channel `ch`'s `p / q`
+/// at `x`: the factor by which rounding of the coordinates, recurrences
+/// and sums grows in the value.
+fn conditioning(f: &FittedBrdf, ch: usize, x: &[f64]) -> (usize, f64) {
+    let r = &f.channels[ch];
+    let n = r.basis().len();
+    let mut phi = vec![0.0; n];
+    r.basis().eval_into(x, &mut phi);
+    let sum_abs = |c: &[f64]| -> f64 { c.iter().zip(&phi).map(|(a, b)| (a * b).abs()).sum() };
+    let (p, q) = r.eval_parts(x);
+    let kappa = sum_abs(r.numerator()) / p.abs().max(1e-300)
+        + sum_abs(r.denominator()) / q.abs().max(1e-300);
+    (n, kappa)
+}
+
 #[test]
 fn f32_path_agrees_with_f64_within_evaluation_conditioning() {
     for f in fits() {
@@ -109,26 +124,7 @@ fn f32_path_agrees_with_f64_within_evaluation_conditioning() {
             let fast = c.eval(to_f32(wi), to_f32(wo));
             let x = f.coordinates(wi, wo);
             for ch in 0..3 {
-                // Condition number of evaluating p/q at x, times f32 rounding
-                // of the coordinates, recurrences and sums.
-                let r = &f.channels[ch];
-                let n = r.basis().len();
-                let mut phi = vec![0.0; n];
-                r.basis().eval_into(&x, &mut phi);
-                let pa: f64 = r
-                    .numerator()
-                    .iter()
-                    .zip(&phi)
-                    .map(|(a, b)| (a * b).abs())
-                    .sum();
-                let qa: f64 = r
-                    .denominator()
-                    .iter()
-                    .zip(&phi)
-                    .map(|(a, b)| (a * b).abs())
-                    .sum();
-                let (p, q) = r.eval_parts(&x);
-                let kappa = pa / p.abs().max(1e-300) + qa / q.abs().max(1e-300);
+                let (n, kappa) = conditioning(&f, ch, &x);
                 let tol = 64.0 * f32::EPSILON as f64 * n as f64 * kappa * exact[ch].abs() + 1e-6;
                 assert!(
                     (fast[ch] as f64 - exact[ch]).abs() <= tol,
@@ -153,6 +149,46 @@ fn f32_path_agrees_with_f64_within_evaluation_conditioning() {
         assert_eq!(bits(out[0]), [0; 3]);
         // At the normal every angle is 0 exactly on both paths.
         assert_eq!(bits(out[1]), bits(c.eval([0.0, 0.0, 1.0], [0.0, 0.0, 1.0])));
+    }
+}
+
+#[test]
+fn the_batched_f64_path_equals_the_fit_to_rounding() {
+    for f in fits() {
+        let batched = BatchedFit::new(f.clone());
+        // 2003 pairs up to 86 degrees (beyond the cut of the fits that
+        // have one), then two below the horizon: the last batch is short.
+        let mut all: Vec<_> = pairs(2003)
+            .into_iter()
+            .map(|(a, b)| (a, brdf::rotate(b, [1.0, 0.0, 0.0], 0.2)))
+            .filter(|p| p.1[2] > 0.0)
+            .collect();
+        all.extend([
+            ([0.0, 0.6, -0.8], [0.0, 0.0, 1.0]),
+            ([0.0, 0.0, 1.0], [0.0, 0.0, 1.0]),
+        ]);
+        let wi: Vec<[f64; 3]> = all.iter().map(|p| p.0).collect();
+        let wo: Vec<[f64; 3]> = all.iter().map(|p| p.1).collect();
+        let mut out = vec![[f64::NAN; 3]; all.len()];
+        batched.eval_batch(&wi, &wo, &mut out);
+        for (&(a, b), got) in all.iter().zip(&out) {
+            let exact = brdf::Brdf::eval(&f, a, b);
+            if a[2] <= 0.0 {
+                assert_eq!(got.map(f64::to_bits), [0; 3]);
+                continue;
+            }
+            let x = f.coordinates(a, b);
+            for ch in 0..3 {
+                let (n, kappa) = conditioning(&f, ch, &x);
+                let tol = 64.0 * f64::EPSILON * n as f64 * kappa * exact[ch].abs() + 1e-14;
+                assert!(
+                    (got[ch] - exact[ch]).abs() <= tol,
+                    "channel {ch} at {a:?}, {b:?}: batched {} vs {} (tolerance {tol:e})",
+                    got[ch],
+                    exact[ch]
+                );
+            }
+        }
     }
 }
 

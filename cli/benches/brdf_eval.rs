@@ -1,5 +1,6 @@
 //! Throughput of evaluating a fitted BRDF (the f32 compact path pair by
-//! pair and in batches of 8 lanes, the f64 path; all cores) against looking
+//! pair and in batches of 8 lanes, the f64 path pair by pair and in
+//! batches; all cores) against looking
 //! up the tabulated MERL grid, on the same one million direction pairs, same
 //! run. Writes `brdf_eval.csv`.
 //!
@@ -7,8 +8,8 @@
 
 use anyhow::Result;
 use brdf::{
-    compact::to_f32, fit_brdf, from_spherical, Brdf, BrdfFitSettings, CompactBrdf, CookTorranceGgx,
-    MerlBrdf, TabulateOptions,
+    compact::to_f32, fit_brdf, from_spherical, BatchedFit, Brdf, BrdfFitSettings, CompactBrdf,
+    CookTorranceGgx, MerlBrdf, TabulateOptions,
 };
 use rayon::prelude::*;
 use std::io::Write;
@@ -93,6 +94,16 @@ fn main() -> Result<()> {
     time("rational fit, f64", &|| {
         pairs.par_iter().map(|&(a, b)| fitted.eval(a, b)[0]).sum()
     });
+    let batched64 = BatchedFit::new(fitted.clone());
+    let wi64: Vec<[f64; 3]> = pairs.iter().map(|p| p.0).collect();
+    let wo64: Vec<[f64; 3]> = pairs.iter().map(|p| p.1).collect();
+    time("rational fit, f64 batched (8 lanes)", &|| {
+        let mut out = vec![[0.0; 3]; n];
+        out.par_chunks_mut(1024)
+            .zip(wi64.par_chunks(1024).zip(wo64.par_chunks(1024)))
+            .for_each(|(o, (a, b))| batched64.eval_batch(a, b, o));
+        out.iter().map(|v| v[0]).sum()
+    });
     time("MERL table lookup, f64", &|| {
         pairs.par_iter().map(|&(a, b)| table.eval(a, b)[0]).sum()
     });
@@ -116,11 +127,16 @@ fn main() -> Result<()> {
             .map(|c| c.max_rel)
             .collect::<Vec<_>>()
     );
-    let (fit32, batched, lookup) = (rows[0].1, rows[1].1, rows[3].1);
+    let (fit32, batched, fit64, batched64, lookup) =
+        (rows[0].1, rows[1].1, rows[2].1, rows[3].1, rows[4].1);
     println!(
         "ratio: f32 rational fit is {:.2}x the speed of the MERL lookup pair by pair, {:.2}x batched",
         lookup / fit32,
         lookup / batched
+    );
+    println!(
+        "ratio: the f64 fit batched is {:.2}x the speed of the f64 fit pair by pair",
+        fit64 / batched64
     );
     Ok(())
 }
