@@ -20,6 +20,7 @@ pub fn luminance(v: [f64; 3]) -> f64 {
 /// What the three fitted functions are.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
+#[non_exhaustive]
 pub enum ColourMode {
     /// Red, green and blue.
     #[default]
@@ -82,6 +83,16 @@ impl ColourMode {
     }
 }
 
+/// The name [`ColourMode`]'s `FromStr` reads: `rgb`, `luminance-chroma`.
+impl std::fmt::Display for ColourMode {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            ColourMode::Rgb => "rgb",
+            ColourMode::LuminanceChroma => "luminance-chroma",
+        })
+    }
+}
+
 impl std::str::FromStr for ColourMode {
     type Err = crate::BrdfError;
     fn from_str(s: &str) -> Result<Self, Self::Err> {
@@ -107,6 +118,7 @@ mod tests {
             let v = mode.split(rgb).map(Option::unwrap);
             let back = mode.combine(v);
             let back32 = mode.combine_f32(v.map(|x| x as f32));
+            assert_eq!(mode.to_string().parse::<ColourMode>().ok(), Some(mode));
             for c in 0..3 {
                 assert!((back[c] - rgb[c]).abs() < 1e-12, "{rgb:?} {back:?}");
                 assert!((f64::from(back32[c]) - rgb[c]).abs() < 1e-6);

@@ -12,6 +12,7 @@ use std::f64::consts::PI;
 /// Which function of the isotropic BRDF is fitted.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
+#[non_exhaustive]
 pub enum ReductionKind {
     /// `rho(theta_h, theta_d)` on the slice `phi_d = pi/2`.
     Slice2d,
@@ -25,6 +26,7 @@ pub enum ReductionKind {
 /// The coordinates the rational function is fitted in.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
+#[non_exhaustive]
 pub enum Coordinates {
     /// `(theta_h, theta_d[, phi_d])` in radians.
     Radians,

@@ -11,6 +11,7 @@ use rational_core::BasisFamily;
 
 /// Target shading language.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[non_exhaustive]
 pub enum Language {
     /// WebGPU shading language.
     Wgsl,

@@ -19,6 +19,7 @@ use std::f64::consts::{FRAC_PI_2, PI};
 /// Which of the two inverse CDFs.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
+#[non_exhaustive]
 pub enum Component {
     /// `theta_l = r_theta(theta_v, mu)`.
     Theta,

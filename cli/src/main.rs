@@ -373,7 +373,26 @@ fn run_dump_qp(data: DataArgs, basis: BasisFamily, split: &str, out: &Path) -> R
 
 fn main() -> Result<()> {
     exit_quietly_on_broken_pipe();
-    match Cli::parse().command {
+    run(Cli::parse()).map_err(name_the_flags)
+}
+
+/// The library's "no feasible fit" names no flag; the CLI adds its own.
+fn name_the_flags(e: anyhow::Error) -> anyhow::Error {
+    let empty_sweep = e.chain().any(|c| {
+        matches!(
+            c.downcast_ref::<rational_core::FitError>(),
+            Some(rational_core::FitError::NoFeasibleFit { .. })
+        )
+    });
+    if empty_sweep {
+        e.context("no fit within the budget (flags: --max-coeffs for the budget, --rel-tol for the intervals)")
+    } else {
+        e
+    }
+}
+
+fn run(cli: Cli) -> Result<()> {
+    match cli.command {
         Command::FitCsv {
             data,
             fit: args,

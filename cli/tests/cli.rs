@@ -99,6 +99,33 @@ fn dump_qp_writes_npy_files() {
 }
 
 #[test]
+fn an_empty_sweep_names_the_flags_that_change_it() {
+    let dir = scratch("empty-sweep");
+    let data = dir.join("sine.csv");
+    let mut s = String::from("x,value\n");
+    for i in 0..200 {
+        let x = i as f64 / 199.0;
+        s.push_str(&format!("{x},{}\n", (20.0 * x).sin() + 2.0));
+    }
+    std::fs::write(&data, s).unwrap();
+    let out = ratfit()
+        .arg("fit-csv")
+        .arg(&data)
+        .args(["--rel-tol", "1e-6", "--max-coeffs", "6", "-o"])
+        .arg(dir.join("f.json"))
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("15 splits tried")
+            && err.contains("--max-coeffs")
+            && err.contains("--rel-tol"),
+        "{err}"
+    );
+}
+
+#[test]
 fn bad_input_gives_clear_errors() {
     let dir = scratch("bad");
     let bad = dir.join("bad.csv");

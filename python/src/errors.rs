@@ -42,8 +42,9 @@ fn from_fit(py: Python<'_>, error: &FitError, message: String) -> PyErr {
             widenings,
             ..
         } => {
-            // The message names the CLI's flag; here it is a keyword.
-            let err = NoFeasibleFit::new_err(message.replace("--max-coeffs", "max_coeffs"));
+            let err = NoFeasibleFit::new_err(format!(
+                "{message} (keywords: max_coeffs for the budget, rel_tol or lo and hi for the intervals)"
+            ));
             let attach = || -> PyResult<()> {
                 let value = err.value(py);
                 value.setattr("max_coeffs", *max_coeffs)?;

@@ -7,7 +7,9 @@
 use crate::FitError;
 use serde::{Deserialize, Serialize};
 
-/// Univariate polynomial family.
+/// Univariate polynomial family. Deliberately exhaustive: every evaluator
+/// of a fit (the f32 form, the shaders, the binary format) must know each
+/// family, so a new one is a breaking change by nature.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, Default)]
 #[serde(rename_all = "snake_case")]
 pub enum BasisFamily {

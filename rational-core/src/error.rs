@@ -50,7 +50,7 @@ pub enum FitError {
     #[error(
         "no feasible rational fit with at most {max_coeffs} coefficients \
          ({} splits tried, intervals widened {widenings} times by x{factor}); \
-         raise --max-coeffs or widen the intervals",
+         raise the coefficient budget or widen the intervals",
         splits.len()
     )]
     NoFeasibleFit {

@@ -15,6 +15,7 @@ use serde::{Deserialize, Serialize};
 /// How poles between samples are excluded.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case", tag = "method")]
+#[non_exhaustive]
 pub enum PoleControl {
     /// Only `q > 0` at the samples (the paper's formulation).
     None,

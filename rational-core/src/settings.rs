@@ -9,6 +9,7 @@ use std::sync::Arc;
 /// How the sweep picks among the feasible splits of one budget.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
 #[serde(rename_all = "snake_case")]
+#[non_exhaustive]
 pub enum Selection {
     /// Lowest 2-norm condition number of the normalised constraint matrix
     /// `G` (the paper's criterion).
@@ -36,6 +37,7 @@ impl std::str::FromStr for Selection {
 /// How the sweep visits the splits `(n_p, n_q)`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
 #[serde(rename_all = "snake_case")]
+#[non_exhaustive]
 pub enum Search {
     /// Every split of every budget from the smallest up, the budget's splits
     /// in parallel (the paper's sweep): about `N^2 / 2` solves up to budget

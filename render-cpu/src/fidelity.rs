@@ -26,6 +26,7 @@ use std::time::Instant;
 /// The two validation scenes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]
+#[non_exhaustive]
 pub enum ValidationScene {
     /// The sphere of `scenes/sphere-lights.toml`: three directional lights.
     Lights,
@@ -294,6 +295,7 @@ impl Validator {
 /// Which reductions [`fit_to_target`] may use.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]
+#[non_exhaustive]
 pub enum TargetReduction {
     /// The 2-D `phi_d = pi/2` slice first (fewer bytes, fast fits); the
     /// 3-D grid when the slice's fits stop improving above the target.

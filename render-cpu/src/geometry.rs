@@ -49,6 +49,7 @@ pub struct Hit {
 
 /// A shape.
 #[derive(Debug, Clone)]
+#[non_exhaustive]
 pub enum Shape {
     /// A sphere.
     Sphere {

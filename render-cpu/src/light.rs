@@ -11,6 +11,7 @@ use std::f64::consts::PI;
 
 /// A light that is not part of the geometry, or an emitting quad.
 #[derive(Debug, Clone)]
+#[non_exhaustive]
 pub enum Light {
     /// Parallel light: unit direction towards the light, irradiance on a
     /// surface facing it.
@@ -48,6 +49,7 @@ const UNIFORM_SPHERE_PDF: f64 = 1.0 / (4.0 * PI);
 
 /// Radiance arriving from infinitely far away.
 #[derive(Debug, Clone)]
+#[non_exhaustive]
 pub enum Environment {
     /// The same radiance from every direction (the white furnace).
     Uniform([f64; 3]),

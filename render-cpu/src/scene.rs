@@ -132,6 +132,7 @@ impl Default for FilmDescription {
 /// The light-transport algorithm.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize)]
 #[serde(rename_all = "kebab-case")]
+#[non_exhaustive]
 pub enum IntegratorKind {
     /// Direct lighting: every directional and point light exactly (with
     /// shadow rays), one sample per area light, and the environment and
@@ -145,6 +146,7 @@ pub enum IntegratorKind {
 /// How the BRDF is importance-sampled.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize)]
 #[serde(rename_all = "kebab-case")]
+#[non_exhaustive]
 pub enum SamplerKind {
     /// `cos(theta) / pi`, blind to the BRDF.
     Cosine,
@@ -183,6 +185,7 @@ impl SamplerKind {
 /// Where the random numbers of a pixel's samples come from.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Deserialize, Serialize)]
 #[serde(rename_all = "snake_case")]
+#[non_exhaustive]
 pub enum SamplePattern {
     /// Independent uniform numbers.
     #[default]
@@ -240,6 +243,7 @@ fn default_sampler() -> SamplerKind {
 /// A material.
 #[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
 #[serde(tag = "kind", rename_all = "kebab-case", deny_unknown_fields)]
+#[non_exhaustive]
 pub enum MaterialDescription {
     /// Lambertian.
     Lambert {
@@ -326,6 +330,7 @@ fn default_max_coeffs() -> usize {
 /// An object: a shape and the material it uses.
 #[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(tag = "shape", rename_all = "kebab-case", deny_unknown_fields)]
+#[non_exhaustive]
 pub enum ObjectDescription {
     /// An analytic sphere.
     Sphere {
@@ -426,6 +431,7 @@ impl ObjectDescription {
 /// A light.
 #[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(tag = "kind", rename_all = "kebab-case", deny_unknown_fields)]
+#[non_exhaustive]
 pub enum LightDescription {
     /// Parallel light.
     Directional {
@@ -475,6 +481,7 @@ fn default_cone() -> f64 {
 /// The environment.
 #[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(tag = "kind", rename_all = "kebab-case", deny_unknown_fields)]
+#[non_exhaustive]
 pub enum EnvironmentDescription {
     /// Constant radiance (the white furnace).
     Uniform {

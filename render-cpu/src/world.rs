@@ -187,6 +187,7 @@ pub struct PreparedMaterial {
 
 /// A material's reflectance in closed form.
 #[derive(Debug, Clone)]
+#[non_exhaustive]
 pub enum ClosedForm {
     /// `albedo / pi`.
     Lambert {

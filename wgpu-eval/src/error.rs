@@ -2,6 +2,7 @@
 
 /// What can go wrong on the GPU side.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum GpuError {
     /// No adapter could be opened (no GPU and no software Vulkan driver).
     #[error("no GPU adapter: {0} (a GPU driver or Mesa's software Vulkan, Debian package `mesa-vulkan-drivers`, is needed)")]

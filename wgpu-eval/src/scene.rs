@@ -103,6 +103,11 @@ fn gpu_lights(scene: &Scene) -> Result<Vec<GpuLight>, GpuError> {
                     "an area light: the GPU renderer draws directional and point lights",
                 ))
             }
+            other => {
+                return Err(unsupported(format!(
+                    "{other:?}: the GPU renderer draws directional and point lights"
+                )))
+            }
         });
     }
     if lights.len() > MAX_LIGHTS {
@@ -165,6 +170,11 @@ fn push_triangles(
         Shape::Plane { .. } => {
             return Err(unsupported(format!(
                 "object {oi} is an infinite plane: the GPU renderer draws triangles (use a quad)"
+            )))
+        }
+        _ => {
+            return Err(unsupported(format!(
+                "object {oi}: the GPU renderer draws meshes and quads"
             )))
         }
     }
@@ -272,7 +282,7 @@ impl GpuScene {
             .iter()
             .map(|m| match m {
                 ClosedForm::Fit(f) => f.fit().coefficients(),
-                ClosedForm::Lambert { .. } => 0,
+                _ => 0,
             })
             .sum()
     }

@@ -62,6 +62,11 @@ pub fn material_source(k: usize, form: &ClosedForm) -> Result<String, GpuError> 
             );
             s
         }
+        other => {
+            return Err(GpuError::Unsupported(format!(
+                "material {k} ({other:?}): the GPU renderer draws Lambert and rational fits"
+            )))
+        }
     })
 }
 

@@ -101,6 +101,7 @@ fn synthetic(family: BasisFamily, coordinates: Coordinates, dims: usize, seed: u
             vec![0.0, max_theta_d.cos(), 0.0],
             vec![1.0, 1.0, std::f32::consts::PI],
         ),
+        other => panic!("no synthetic domain for {other:?}"),
     };
     let idx = indices(dims, if dims == 2 { 6 } else { 4 });
     let n = idx.len();

@@ -197,10 +197,7 @@ fn rational_reps(table: &dyn Brdf, plan: &Plan) -> Vec<Attempt> {
                     mode,
                     with,
                 );
-                let what = match mode {
-                    ColourMode::Rgb => "rgb",
-                    ColourMode::LuminanceChroma => "luminance-chroma",
-                };
+                let what = mode.to_string();
                 let lobe_name = if with.is_some() { " x GGX lobe" } else { "" };
                 out.push((
                     format!("rational 3-D {what}{lobe_name} {}%", t * 100.0),

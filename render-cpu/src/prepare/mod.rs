@@ -52,6 +52,7 @@ pub struct RenderOptions {
 
 /// What preparation did with one item.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[non_exhaustive]
 pub enum Action {
     /// Loaded or computed.
     Prepared,
