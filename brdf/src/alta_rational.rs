@@ -88,7 +88,8 @@ impl AltaRational {
     ///
     /// ALTA evaluates `p / q` as is: our clamps ([`FittedBrdf::coordinates`]
     /// clamps `theta_d` to the grazing cut, [`FittedBrdf::eval_coords`]
-    /// negative values to zero) are not part of the file.
+    /// negative values to zero and values above the fit's ceiling to it)
+    /// are not part of the file.
     ///
     /// # Errors
     /// Fits in coordinates ALTA has no parametrisation for (the sqrt warp of

@@ -58,6 +58,8 @@ pub struct CompactBrdf {
     pub mode: ColourMode,
     /// The analytic lobe each function multiplies, when there is one.
     pub lobe: Option<LobeF32>,
+    /// The largest RGB value evaluation returns ([`FittedBrdf::ceiling`]).
+    pub ceiling: Option<[f32; 3]>,
 }
 
 /// Univariate values `phi_0..=phi_deg` at `t` in f32 (the shaders' recurrences).
@@ -215,6 +217,7 @@ impl CompactBrdf {
             channels,
             mode: f.mode,
             lobe: f.lobe.map(|l| l.to_f32()),
+            ceiling: f.ceiling.map(|c| c.map(|v| v as f32)),
         }
     }
 
@@ -253,7 +256,17 @@ impl CompactBrdf {
             }
             None => v,
         };
-        self.mode.combine_f32(v)
+        self.finish(v)
+    }
+
+    /// RGB from the three functions' values (lobe applied): the colour
+    /// mode's combination, then the ceiling, in the shaders' order.
+    pub fn finish(&self, v: [f32; 3]) -> [f32; 3] {
+        let rgb = self.mode.combine_f32(v);
+        match self.ceiling {
+            Some(c) => [rgb[0].min(c[0]), rgb[1].min(c[1]), rgb[2].min(c[2])],
+            None => rgb,
+        }
     }
 
     /// Whether directions beyond an elevation cut are moved to it.
@@ -276,7 +289,8 @@ impl CompactBrdf {
     /// coordinate's degree weight when flag bit 0 is set, domain and
     /// coefficients as f32). Unweighted RGB fits of the whole hemisphere
     /// leave the flags 0; bit 1 marks the luminance-chroma mode; bit 3 a
-    /// lobe, whose seven f32 (`kd / pi`, `f0`, `alpha`) follow the header.
+    /// lobe, whose seven f32 (`kd / pi`, `f0`, `alpha`) follow the header;
+    /// bit 4 a ceiling, three f32 after the lobe.
     pub fn to_bytes(&self) -> Vec<u8> {
         let mut out = b"RFB1".to_vec();
         let coords = match self.coordinates {
@@ -292,7 +306,8 @@ impl CompactBrdf {
         let flags = u8::from(weighted)
             | (u8::from(self.mode == ColourMode::LuminanceChroma) << 1)
             | (u8::from(cut) << 2)
-            | (u8::from(self.lobe.is_some()) << 3);
+            | (u8::from(self.lobe.is_some()) << 3)
+            | (u8::from(self.ceiling.is_some()) << 4);
         out.extend_from_slice(&[coords, self.dims as u8, self.channels.len() as u8, flags]);
         out.extend_from_slice(&self.max_theta_d.to_le_bytes());
         if cut {
@@ -302,6 +317,9 @@ impl CompactBrdf {
             for v in l.kd_over_pi.iter().chain(&l.f0).chain([&l.alpha]) {
                 out.extend_from_slice(&v.to_le_bytes());
             }
+        }
+        for v in self.ceiling.iter().flatten() {
+            out.extend_from_slice(&v.to_le_bytes());
         }
         for c in &self.channels {
             let fam = match c.family {
@@ -347,7 +365,7 @@ impl CompactBrdf {
         if nch != 3 {
             return Err(bad(&format!("{nch} channels (3 expected)")));
         }
-        if b[7] > 15 {
+        if b[7] > 31 {
             return Err(bad(&format!("unknown flags {:#04x}", b[7])));
         }
         let weighted = b[7] & 1 == 1;
@@ -390,6 +408,23 @@ impl CompactBrdf {
         } else {
             None
         };
+        let ceiling = if b[7] & 16 == 16 {
+            let raw = b
+                .get(pos..pos + 12)
+                .ok_or_else(|| bad("truncated ceiling"))?;
+            pos += 12;
+            let c: [f32; 3] = std::array::from_fn(|k| {
+                f32::from_le_bytes(raw[4 * k..4 * k + 4].try_into().expect("4"))
+            });
+            if !c.iter().all(|v| v.is_finite() && *v > 0.0) {
+                return Err(bad(&format!(
+                    "ceiling {c:?} is not three positive, finite values"
+                )));
+            }
+            Some(c)
+        } else {
+            None
+        };
         let mut channels = Vec::with_capacity(nch);
         for _ in 0..nch {
             let (channel, next) = read_channel(b, pos, dims, weighted).map_err(|r| bad(&r))?;
@@ -402,6 +437,7 @@ impl CompactBrdf {
         Ok(Self {
             mode,
             lobe,
+            ceiling,
             coordinates,
             dims,
             max_theta_d,

@@ -16,7 +16,7 @@ use crate::compact::{CompactBrdf, CompactChannel};
 use crate::fitted::FittedBrdf;
 use crate::geometry::Vec3;
 use crate::lobe::Lobe;
-use crate::{ColourMode, Coordinates};
+use crate::Coordinates;
 use rational_core::BasisFamily;
 use std::f32::consts::{FRAC_PI_2, FRAC_PI_4, PI};
 use std::ops::{Add, AddAssign, Div, Mul, Sub};
@@ -413,10 +413,7 @@ impl BatchForm for CompactBrdf {
             let f = lobe.factors(wi, wo, self.mode);
             rgb = [rgb[0] * f[0], rgb[1] * f[1], rgb[2] * f[2]];
         }
-        match self.mode {
-            ColourMode::Rgb => rgb.map(|x| x.max(0.0)),
-            mode => mode.combine_f32(rgb),
-        }
+        self.finish(rgb)
     }
 }
 
@@ -543,7 +540,7 @@ impl BatchForm for BatchedFit {
             }
             None => v,
         };
-        self.fit.mode.combine(v)
+        self.fit.finish(v)
     }
 }
 

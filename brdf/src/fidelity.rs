@@ -113,15 +113,12 @@ fn percentile(sorted: &[f64], q: f64) -> f64 {
     sorted[i]
 }
 
-/// Relative luminance errors of `candidate` against `table` by band of the
-/// larger elevation, and the peak check on a dense grid.
-pub fn hemisphere_errors(
-    table: &dyn Brdf,
-    candidate: &dyn Brdf,
-    settings: &HemisphereSettings,
-) -> HemisphereErrors {
+/// The peak check of [`hemisphere_errors`]: the candidate's largest value on
+/// a dense `grid` of the whole hemisphere over the table's (within 80
+/// degrees of the normal), the worse channel, and the table's peak.
+pub fn peaks(table: &dyn Brdf, candidate: &dyn Brdf, grid: [usize; 3]) -> (f64, [f64; 3]) {
     // The dense grid: cell centres of (sqrt-warped theta_h, theta_d, phi_d).
-    let [nh, nd, np] = settings.grid;
+    let [nh, nd, np] = grid;
     let grid: Vec<(Vec3, Vec3)> = (0..nh * nd * np)
         .map(|n| {
             let (i, j, k) = (n / (nd * np), (n / np) % nd, n % np);
@@ -156,7 +153,17 @@ pub fn hemisphere_errors(
         .filter(|&c| table_peak[c] > 0.0)
         .map(|c| cand_peak[c] / table_peak[c])
         .fold(0.0, f64::max);
+    (peak_ratio, table_peak)
+}
 
+/// Relative luminance errors of `candidate` against `table` by band of the
+/// larger elevation, and the peak check on a dense grid.
+pub fn hemisphere_errors(
+    table: &dyn Brdf,
+    candidate: &dyn Brdf,
+    settings: &HemisphereSettings,
+) -> HemisphereErrors {
+    let (peak_ratio, table_peak) = peaks(table, candidate, settings.grid);
     let pairs = validation_pairs(settings.pairs, settings.seed);
     let floor = settings.floor * luminance(table_peak);
     let rows: Vec<(f64, f64)> = pairs

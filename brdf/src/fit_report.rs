@@ -85,6 +85,9 @@ pub struct BrdfFitReport {
     /// The lobe the functions multiply, when in use.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub lobe: Option<Lobe>,
+    /// The fit's ceiling on its RGB values ([`crate::FittedBrdf::ceiling`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ceiling: Option<[f64; 3]>,
     /// Per channel.
     pub channels: Vec<ChannelReport>,
     /// Total wall time, sampling included.
@@ -127,6 +130,16 @@ impl fmt::Display for BrdfFitReport {
             if let Some(k) = &c.cap {
                 writeln!(f, "  {}   {k}", c.channel)?;
             }
+        }
+        if let Some(c) = self.ceiling {
+            writeln!(
+                f,
+                "  RGB values held at or below {:.4e}, {:.4e}, {:.4e}: {}x each channel's measured peak within 80 degrees (raised to its cap or its largest value where higher)",
+                c[0],
+                c[1],
+                c[2],
+                crate::CEILING_OVER_PEAK
+            )?;
         }
         if let Some(l) = &self.lobe {
             writeln!(

@@ -27,9 +27,22 @@ pub struct FittedBrdf {
     /// representation), when there is one.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub lobe: Option<Lobe>,
+    /// The largest RGB value any evaluation returns ([`CEILING_OVER_PEAK`]
+    /// times each channel's largest measured value), when there is one.
+    /// Between samples nothing else bounds `p / q`: the cap check pushes the
+    /// fit below its cap where a refit is feasible, and the ceiling holds
+    /// where it is not, or between the check's grid points.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ceiling: Option<[f64; 3]>,
     /// Source material.
     pub name: String,
 }
+
+/// The ceiling of a fit's RGB values over the largest measured value of
+/// each channel: the fidelity target's bound on the peak (a fit may exceed
+/// the table's peak between samples, by its interval at the peak and
+/// then some, but never by more than this).
+pub const CEILING_OVER_PEAK: f64 = 2.0;
 
 /// The serialised form of a [`FittedBrdf`], checked on the way in.
 #[derive(Deserialize)]
@@ -40,6 +53,8 @@ struct FittedSpec {
     mode: ColourMode,
     #[serde(default)]
     lobe: Option<Lobe>,
+    #[serde(default)]
+    ceiling: Option<[f64; 3]>,
     name: String,
 }
 
@@ -51,6 +66,7 @@ impl TryFrom<FittedSpec> for FittedBrdf {
             channels: s.channels,
             mode: s.mode,
             lobe: s.lobe,
+            ceiling: s.ceiling,
             name: s.name,
         };
         f.validate()?;
@@ -91,7 +107,24 @@ impl FittedBrdf {
                 )));
             }
         }
+        if let Some(c) = self.ceiling {
+            if !c.iter().all(|v| v.is_finite() && *v > 0.0) {
+                return Err(bad(format!(
+                    "ceiling {c:?}: three positive, finite values expected"
+                )));
+            }
+        }
         Ok(())
+    }
+
+    /// RGB from the three functions' values: the colour mode's combination
+    /// (negative values set to zero), then the ceiling.
+    pub fn finish(&self, v: [f64; 3]) -> [f64; 3] {
+        let rgb = self.mode.combine(v);
+        match self.ceiling {
+            Some(c) => [0, 1, 2].map(|k| rgb[k].min(c[k])),
+            None => rgb,
+        }
     }
 
     /// Fitting coordinates of a direction pair: `phi_d` folded by
@@ -106,11 +139,11 @@ impl FittedBrdf {
     }
 
     /// Evaluates every channel in f64 and makes RGB by the colour mode;
-    /// negative values (possible only between samples) are clamped to zero.
-    /// A fit with a lobe needs the directions: see [`Brdf::eval`].
+    /// negative values (possible only between samples) are clamped to zero,
+    /// and values above the ceiling to it. A fit with a lobe needs the
+    /// directions: see [`Brdf::eval`].
     pub fn eval_coords(&self, x: &[f64]) -> [f64; 3] {
-        self.mode
-            .combine([0, 1, 2].map(|c| self.channels[c].eval(x)))
+        self.finish([0, 1, 2].map(|c| self.channels[c].eval(x)))
     }
 
     /// The functions' values at a direction pair above the surface (the
@@ -143,14 +176,15 @@ impl FittedBrdf {
             .sum()
     }
 
-    /// Bytes of all coefficients as f32, and the lobe's seven parameters
-    /// when there is one.
+    /// Bytes of all coefficients as f32, the lobe's seven parameters and
+    /// the ceiling's three when there are.
     pub fn byte_size_f32(&self) -> usize {
         self.channels
             .iter()
             .map(RationalFunction::byte_size_f32)
             .sum::<usize>()
             + if self.lobe.is_some() { 28 } else { 0 }
+            + if self.ceiling.is_some() { 12 } else { 0 }
     }
 }
 
@@ -169,9 +203,9 @@ impl Brdf for FittedBrdf {
                 crate::geometry::clamp_elevation(wi, cos_cut, sin_cut),
                 crate::geometry::clamp_elevation(wo, cos_cut, sin_cut),
             );
-            return self.mode.combine(self.functions_at(wi, wo));
+            return self.finish(self.functions_at(wi, wo));
         }
-        self.mode.combine(self.functions_at(wi, wo))
+        self.finish(self.functions_at(wi, wo))
     }
 
     fn name(&self) -> String {

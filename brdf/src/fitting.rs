@@ -4,7 +4,8 @@ use crate::cap::hold_below_cap;
 use crate::colour::ColourMode;
 use crate::design::{PerceptualBounds, DEFAULT_PEAK_CAP};
 use crate::fit_report::{BrdfFitReport, ChannelReport};
-use crate::fitted::FittedBrdf;
+use crate::fitted::{FittedBrdf, CEILING_OVER_PEAK};
+use crate::geometry::HalfDiff;
 use crate::lobe::Lobe;
 use crate::reduce::{Reduction, Samples};
 use crate::{Brdf, BrdfError};
@@ -205,6 +206,7 @@ pub fn fit_samples(
     settings: &BrdfFitSettings,
 ) -> Result<(FittedBrdf, BrdfFitReport), BrdfError> {
     let start = Instant::now();
+    let peaks = measured_peaks(samples);
     let derived = in_fitted_mode(samples, settings)?;
     let samples = derived.as_ref().unwrap_or(samples);
     let results: Vec<Result<(RationalFunction, ChannelReport), BrdfError>> = (0..3)
@@ -212,7 +214,7 @@ pub fn fit_samples(
         .map(|c| fit_channel(samples, c, settings))
         .collect();
     let parts = results.into_iter().collect::<Result<Vec<_>, _>>()?;
-    let (fitted, mut report) = assemble(samples, name, settings, parts);
+    let (fitted, mut report) = assemble(samples, peaks, name, settings, parts);
     report.seconds = start.elapsed().as_secs_f64();
     Ok((fitted, report))
 }
@@ -265,7 +267,13 @@ pub fn assemble_channels(
         });
     }
     let seconds = parts.iter().map(|(_, r)| r.seconds).fold(0.0, f64::max);
-    let (fitted, mut report) = assemble(derived.as_ref().unwrap_or(samples), name, settings, parts);
+    let (fitted, mut report) = assemble(
+        derived.as_ref().unwrap_or(samples),
+        measured_peaks(samples),
+        name,
+        settings,
+        parts,
+    );
     report.seconds = seconds;
     Ok((fitted, report))
 }
@@ -289,10 +297,73 @@ fn in_fitted_mode(
     Ok((!settings.mode.is_rgb()).then(|| samples.in_colour_mode(settings.mode)))
 }
 
+/// The measured RGB peaks of each channel (values and the upper ends of
+/// spread cells): within 80 degrees of the normal, where measured tables are
+/// trusted (they divide by a vanishing cosine at the horizon), and
+/// anywhere.
+#[derive(Debug, Clone, Copy)]
+struct Peaks {
+    trusted: [f64; 3],
+    anywhere: [f64; 3],
+}
+
+fn measured_peaks(samples: &Samples) -> Peaks {
+    let cos_80 = 80f64.to_radians().cos();
+    let mut p = Peaks {
+        trusted: [0.0; 3],
+        anywhere: [0.0; 3],
+    };
+    for r in &samples.rows {
+        let [theta_h, theta_d, phi_d] = r.angles;
+        let (wi, wo) = HalfDiff {
+            theta_h,
+            phi_h: 0.0,
+            theta_d,
+            phi_d,
+        }
+        .to_directions();
+        let trusted = wi[2].min(wo[2]) > cos_80;
+        for c in 0..3 {
+            for v in [r.value[c], r.hi[c]].into_iter().filter(|v| v.is_finite()) {
+                p.anywhere[c] = p.anywhere[c].max(v);
+                if trusted {
+                    p.trusted[c] = p.trusted[c].max(v);
+                }
+            }
+        }
+    }
+    p
+}
+
+/// The fit's ceiling: [`CEILING_OVER_PEAK`] times each channel's trusted
+/// peak, raised where needed so that it cuts nothing the data allow: to the
+/// largest measured value anywhere, and in RGB mode to the channel's cap.
+/// None when a channel has no positive value.
+fn ceiling(
+    peaks: Peaks,
+    settings: &BrdfFitSettings,
+    reports: &[ChannelReport],
+) -> Option<[f64; 3]> {
+    if !peaks.anywhere.iter().all(|p| p.is_finite() && *p > 0.0) {
+        return None;
+    }
+    Some([0, 1, 2].map(|c| {
+        let cap = match settings.mode {
+            ColourMode::Rgb => reports[c].cap.as_ref().map_or(0.0, |k| k.cap),
+            _ => 0.0,
+        };
+        (CEILING_OVER_PEAK * peaks.trusted[c])
+            .max(peaks.anywhere[c])
+            .max(cap)
+    }))
+}
+
 /// The fit and its report from three fitted channels, with the errors over
-/// every sample (`samples` in the settings' colour mode).
+/// every sample (`samples` in the settings' colour mode; `peaks` the
+/// measured RGB peaks).
 fn assemble(
     samples: &Samples,
+    peaks: Peaks,
     name: &str,
     settings: &BrdfFitSettings,
     parts: Vec<(RationalFunction, ChannelReport)>,
@@ -303,6 +374,7 @@ fn assemble(
         channels,
         mode: settings.mode,
         lobe: settings.lobe,
+        ceiling: ceiling(peaks, settings, &reports),
         name: name.to_string(),
     };
     // Errors over every valid sample above the floor, grazing ones included.
@@ -346,6 +418,7 @@ fn assemble(
             .map(|b| b.weights().to_vec())
             .unwrap_or_default(),
         lobe: settings.lobe,
+        ceiling: fitted.ceiling,
         channels: reports,
         seconds: 0.0,
     };

@@ -57,7 +57,7 @@ pub use design::{
 pub use downsample::DownsampledTable;
 pub use error::{write_atomic, BrdfError};
 pub use fit_report::{BrdfFitReport, ChannelReport};
-pub use fitted::FittedBrdf;
+pub use fitted::{FittedBrdf, CEILING_OVER_PEAK};
 pub use fitting::{
     assemble_channels, fit_brdf, fit_samples, fit_samples_channel, BrdfFitSettings, MAX_CAP_ROUNDS,
 };

@@ -370,11 +370,24 @@ fn brdf_fn(b: &CompactBrdf, l: Language, prefix: &str) -> String {
             decl(l, "lobe", v3, false)
         );
     }
+    // The ceiling ([`CompactBrdf::ceiling`]) last, as the f32 path.
+    let ceiled = |rgb: &str| match b.ceiling {
+        Some(c) => format!(
+            "min({rgb}, {v3}({}, {}, {}))",
+            lit(c[0]),
+            lit(c[1]),
+            lit(c[2])
+        ),
+        None => rgb.to_string(),
+    };
     match b.mode {
         ColourMode::Rgb => {
             out += &format!(
-                "    return max({v3}({}), {v3}(0.0, 0.0, 0.0));\n}}\n",
-                calls.join(", ")
+                "    return {};\n}}\n",
+                ceiled(&format!(
+                    "max({v3}({}), {v3}(0.0, 0.0, 0.0))",
+                    calls.join(", ")
+                ))
             );
         }
         ColourMode::LuminanceChroma => {
@@ -393,7 +406,10 @@ fn brdf_fn(b: &CompactBrdf, l: Language, prefix: &str) -> String {
                 calls[2]
             );
             out += &format!(
-                "    return {v3}(r, max((y - {wr} * r - {wb} * b) / {wg}, 0.0), b);\n}}\n"
+                "    return {};\n}}\n",
+                ceiled(&format!(
+                    "{v3}(r, max((y - {wr} * r - {wb} * b) / {wg}, 0.0), b)"
+                ))
             );
         }
     }

@@ -202,8 +202,12 @@ fn compact_binary_round_trips() {
         assert_eq!(back.to_bytes(), bytes);
         let cut = f.reduction.max_elevation_deg < 90.0;
         assert_eq!(c.has_elevation_cut(), cut);
-        let header = if cut { 16 } else { 12 } + if f.lobe.is_some() { 28 } else { 0 };
+        let lobe_end = if cut { 16 } else { 12 } + if f.lobe.is_some() { 28 } else { 0 };
+        let header = lobe_end + if f.ceiling.is_some() { 12 } else { 0 };
         assert!(bytes.len() < header + 3 * (5 + 3 + 4 * (6 + 60)));
+        // Every fit of measured or analytic data has a ceiling, above its peak.
+        let ceiling = f.ceiling.expect("a ceiling");
+        assert_eq!(back.ceiling, Some(ceiling.map(|v| v as f32)));
         let weighted = f.channels.iter().any(|r| r.basis().is_weighted());
         let chroma = f.mode == ColourMode::LuminanceChroma;
         assert_eq!(
@@ -211,18 +215,27 @@ fn compact_binary_round_trips() {
             u8::from(weighted)
                 | (u8::from(chroma) << 1)
                 | (u8::from(cut) << 2)
-                | (u8::from(f.lobe.is_some()) << 3),
+                | (u8::from(f.lobe.is_some()) << 3)
+                | (1 << 4),
             "flags byte"
         );
+        let mut negative = bytes.clone();
+        negative[lobe_end + 4..lobe_end + 8].copy_from_slice(&(-1.0f32).to_le_bytes());
+        let e = CompactBrdf::from_bytes(&negative).unwrap_err().to_string();
+        assert!(e.contains("ceiling"), "{e}");
+        let mut short = bytes.clone();
+        short.truncate(lobe_end + 6);
+        let e = CompactBrdf::from_bytes(&short).unwrap_err().to_string();
+        assert!(e.contains("truncated ceiling"), "{e}");
         if f.lobe.is_some() {
             // The lobe's roughness is the last of its seven values.
-            let at = header - 4;
+            let at = lobe_end - 4;
             let mut rough = bytes.clone();
-            rough[at..header].copy_from_slice(&0.0f32.to_le_bytes());
+            rough[at..lobe_end].copy_from_slice(&0.0f32.to_le_bytes());
             let e = CompactBrdf::from_bytes(&rough).unwrap_err().to_string();
             assert!(e.contains("lobe") && e.contains("roughness"), "{e}");
             let mut short = bytes.clone();
-            short.truncate(header - 2);
+            short.truncate(lobe_end - 2);
             let e = CompactBrdf::from_bytes(&short).unwrap_err().to_string();
             assert!(e.contains("truncated lobe"), "{e}");
             // ALTA's p / q cannot carry the lobe.
@@ -386,4 +399,67 @@ fn alta_export_reads_back_and_evaluates_the_same() {
             }
         }
     }
+}
+
+#[test]
+fn the_ceiling_bounds_every_evaluation_path() {
+    use rational_core::{Basis, BasisFamily, Domain, RationalFunction};
+    // q = 1 - 0.999 T1(x0): near x0's upper end p / q reaches 1000.
+    let domain = Domain::new(vec![0.0, 0.0], vec![1.0, 1.4]).unwrap();
+    let basis = Basis::new(BasisFamily::Chebyshev, domain, 3).unwrap();
+    let t1 = (0..3).find(|&j| basis.multi_index(j) == [1, 0]).unwrap();
+    let mut q = vec![0.0; 3];
+    q[0] = 1.0;
+    q[t1] = -0.999;
+    let channel = RationalFunction::new(basis, vec![1.0], q).unwrap();
+    let ceiling = [1.5, 2.5, 4.0];
+    let fit = FittedBrdf {
+        reduction: Reduction::default().whole_hemisphere(),
+        channels: vec![channel.clone(), channel.clone(), channel],
+        mode: ColourMode::Rgb,
+        lobe: None,
+        ceiling: Some(ceiling),
+        name: "pole".into(),
+    };
+    fit.validate().unwrap();
+    let all = pairs(4001);
+    let wi: Vec<[f64; 3]> = all.iter().map(|p| p.0).collect();
+    let wo: Vec<[f64; 3]> = all.iter().map(|p| p.1).collect();
+    let mut batched = vec![[0.0; 3]; all.len()];
+    BatchedFit::new(fit.clone()).eval_batch(&wi, &wo, &mut batched);
+    let compact = CompactBrdf::from_fitted(&fit);
+    let wi32: Vec<[f32; 3]> = wi.iter().map(|&d| to_f32(d)).collect();
+    let wo32: Vec<[f32; 3]> = wo.iter().map(|&d| to_f32(d)).collect();
+    let lanes = compact.eval_many_batched(&wi32, &wo32);
+    let mut held = [0usize; 3];
+    for (i, &(a, b)) in all.iter().enumerate() {
+        let f64_value = brdf::Brdf::eval(&fit, a, b);
+        let f32_value = compact.eval(wi32[i], wo32[i]);
+        for c in 0..3 {
+            let values = [
+                f64_value[c],
+                batched[i][c],
+                f64::from(f32_value[c]),
+                f64::from(lanes[i][c]),
+            ];
+            assert!(
+                values.iter().all(|&v| v <= ceiling[c] * (1.0 + 1e-7)),
+                "channel {c} at pair {i}: {values:?} above {}",
+                ceiling[c]
+            );
+            held[c] += usize::from(f64_value[c] >= ceiling[c]);
+        }
+    }
+    // The functions exceed each ceiling somewhere, less often the higher it is.
+    assert!(
+        held[0] > held[1] && held[1] > held[2] && held[2] > 0,
+        "{held:?}"
+    );
+    // A fit file's ceiling is checked on load.
+    let mut json = serde_json::to_value(&fit).unwrap();
+    json["ceiling"] = serde_json::json!([1.0, -1.0, 1.0]);
+    let e = serde_json::from_value::<FittedBrdf>(json)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("ceiling"), "{e}");
 }

@@ -599,6 +599,7 @@ fn a_fit_whose_f32_form_loses_its_digits_is_evaluated_in_f64() {
         channels: vec![channel.clone(), channel.clone(), channel],
         mode: brdf::ColourMode::Rgb,
         lobe: None,
+        ceiling: None,
         name: "nearly cancelling".into(),
     };
     fit.validate().unwrap();

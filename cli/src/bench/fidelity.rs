@@ -549,6 +549,27 @@ fn settings_and_plan(args: &FidelityArgs) -> (ValidationSettings, Plan) {
     (settings, plan)
 }
 
+/// The note of a fit with a ceiling that binds on the peak check's grid,
+/// with the peak ratio the functions reach without it: the ceiling bounds
+/// what is rendered, and the note keeps the fit's own excess in sight.
+fn with_unclamped_peak(note: String, judge: &Judge, fitted: &brdf::FittedBrdf) -> String {
+    if fitted.ceiling.is_none() {
+        return note;
+    }
+    let unclamped = brdf::FittedBrdf {
+        ceiling: None,
+        ..fitted.clone()
+    };
+    let grid = judge.plan.hemisphere.grid;
+    let (with, _) = brdf::fidelity::peaks(judge.table, fitted, grid);
+    let (without, _) = brdf::fidelity::peaks(judge.table, &unclamped, grid);
+    if without > with * (1.0 + 1e-9) {
+        format!("{note}; the ceiling holds: peak x{without:.2} without it")
+    } else {
+        note
+    }
+}
+
 /// Every representation of one material, measured.
 fn measure_material(judge: &Judge) -> Result<Vec<Row>> {
     let mut material_rows = Vec::new();
@@ -556,6 +577,7 @@ fn measure_material(judge: &Judge) -> Result<Vec<Row>> {
         match result {
             Ok((fitted, note)) => {
                 let bytes = fitted.byte_size_f32();
+                let note = with_unclamped_peak(note, judge, &fitted);
                 let candidate: Arc<dyn Brdf> = Arc::new(FitInDomain::new(fitted));
                 let row = measure(
                     judge,
