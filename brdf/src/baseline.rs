@@ -102,13 +102,7 @@ pub fn cook_torrance(samples: &Samples, used: &[usize], c: usize) -> BaselineRep
         .filter(|&&i| samples.rows[i].value[c] > 0.0)
         .map(|&i| {
             let r = &samples.rows[i];
-            let (wi, wo) = HalfDiff {
-                theta_h: r.angles[0],
-                phi_h: 0.0,
-                theta_d: r.angles[1],
-                phi_d: r.angles[2],
-            }
-            .to_directions();
+            let (wi, wo) = HalfDiff::pair_at(r.angles);
             (wi, wo, r.value[c])
         })
         .collect();
@@ -239,24 +233,12 @@ pub fn fit_ggx(material: &dyn Brdf) -> GgxFit {
     // (wi, wo, value, cos_i cos_o) per grid cell.
     type Row = ([f64; 3], [f64; 3], [f64; 3], f64);
     let mut rows: Vec<Row> = Vec::new();
-    for i in 0..nh {
-        for j in 0..nd {
-            for k in 0..np {
-                let u = (i as f64 + 0.5) / nh as f64;
-                let (wi, wo) = HalfDiff {
-                    theta_h: u * u * PI / 2.0,
-                    phi_h: 0.0,
-                    theta_d: (j as f64 + 0.5) / nd as f64 * PI / 2.0,
-                    phi_d: (k as f64 + 0.5) / np as f64 * PI,
-                }
-                .to_directions();
-                let min_cos = 80f64.to_radians().cos();
-                if wi[2] > min_cos && wo[2] > min_cos {
-                    let v = material.eval(wi, wo);
-                    if v.iter().all(|x| x.is_finite()) {
-                        rows.push((wi, wo, v.map(|x| x.max(0.0)), wi[2] * wo[2]));
-                    }
-                }
+    let min_cos = 80f64.to_radians().cos();
+    for (wi, wo) in HalfDiff::cell_centres([nh, nd, np]) {
+        if wi[2] > min_cos && wo[2] > min_cos {
+            let v = material.eval(wi, wo);
+            if v.iter().all(|x| x.is_finite()) {
+                rows.push((wi, wo, v.map(|x| x.max(0.0)), wi[2] * wo[2]));
             }
         }
     }

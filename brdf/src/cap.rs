@@ -106,14 +106,7 @@ fn cap_grid(data: &IntervalData, reduction: &Reduction) -> Vec<Vec<f64>> {
                 lower[k] + t * (upper[k] - lower[k])
             })
             .collect();
-        let [theta_h, theta_d, phi_d] = reduction.coordinates.angles(&x);
-        let (wi, wo) = HalfDiff {
-            theta_h,
-            phi_h: 0.0,
-            theta_d,
-            phi_d,
-        }
-        .to_directions();
+        let (wi, wo) = HalfDiff::pair_at(reduction.coordinates.angles(&x));
         if wi[2] > 0.0 && wo[2] > 0.0 && wi[2].min(wo[2]) >= min_cos {
             grid.push(x);
         }
@@ -323,13 +316,7 @@ mod tests {
         assert!(angles.iter().any(|a| (a[2] - PI).abs() < 1e-12));
         // Only pairs above the horizon.
         for a in &angles {
-            let (wi, wo) = HalfDiff {
-                theta_h: a[0],
-                phi_h: 0.0,
-                theta_d: a[1],
-                phi_d: a[2],
-            }
-            .to_directions();
+            let (wi, wo) = HalfDiff::pair_at(*a);
             assert!(wi[2] > 0.0 && wo[2] > 0.0, "{a:?}");
         }
         // 16 points per axis (twice the data's 8), less those below the horizon.

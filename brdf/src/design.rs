@@ -212,13 +212,7 @@ pub fn estimate_noise(samples: &Samples, c: usize) -> NoiseEstimate {
 
 /// The larger elevation (degrees) of a cell's two directions.
 pub(crate) fn max_elevation_deg(angles: [f64; 3]) -> f64 {
-    let (wi, wo) = crate::geometry::HalfDiff {
-        theta_h: angles[0],
-        phi_h: 0.0,
-        theta_d: angles[1],
-        phi_d: angles[2],
-    }
-    .to_directions();
+    let (wi, wo) = crate::geometry::HalfDiff::pair_at(angles);
     wi[2].min(wo[2]).clamp(-1.0, 1.0).acos().to_degrees()
 }
 

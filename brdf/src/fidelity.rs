@@ -118,21 +118,7 @@ fn percentile(sorted: &[f64], q: f64) -> f64 {
 /// degrees of the normal), the worse channel, and the table's peak.
 pub fn peaks(table: &dyn Brdf, candidate: &dyn Brdf, grid: [usize; 3]) -> (f64, [f64; 3]) {
     // The dense grid: cell centres of (sqrt-warped theta_h, theta_d, phi_d).
-    let [nh, nd, np] = grid;
-    let grid: Vec<(Vec3, Vec3)> = (0..nh * nd * np)
-        .map(|n| {
-            let (i, j, k) = (n / (nd * np), (n / np) % nd, n % np);
-            let u = (i as f64 + 0.5) / nh as f64;
-            HalfDiff {
-                theta_h: u * u * PI / 2.0,
-                phi_h: 0.0,
-                theta_d: (j as f64 + 0.5) / nd as f64 * PI / 2.0,
-                phi_d: (k as f64 + 0.5) / np as f64 * PI,
-            }
-            .to_directions()
-        })
-        .filter(|(wi, wo)| wi[2] > 0.0 && wo[2] > 0.0)
-        .collect();
+    let grid: Vec<(Vec3, Vec3)> = HalfDiff::cell_centres(grid);
     // Measured tables divide by a vanishing cosine at the horizon: their
     // peak is taken within 80 degrees of the normal, the candidate's
     // everywhere.

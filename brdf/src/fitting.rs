@@ -314,14 +314,7 @@ fn measured_peaks(samples: &Samples) -> Peaks {
         anywhere: [0.0; 3],
     };
     for r in &samples.rows {
-        let [theta_h, theta_d, phi_d] = r.angles;
-        let (wi, wo) = HalfDiff {
-            theta_h,
-            phi_h: 0.0,
-            theta_d,
-            phi_d,
-        }
-        .to_directions();
+        let (wi, wo) = HalfDiff::pair_at(r.angles);
         let trusted = wi[2].min(wo[2]) > cos_80;
         for c in 0..3 {
             for v in [r.value[c], r.hi[c]].into_iter().filter(|v| v.is_finite()) {

@@ -103,6 +103,39 @@ impl HalfDiff {
         }
     }
 
+    /// The direction pair at Rusinkiewicz angles `[theta_h, theta_d,
+    /// phi_d]` with `phi_h = 0`: the pair a cell of an isotropic table
+    /// stands for.
+    pub fn pair_at(angles: [f64; 3]) -> (Vec3, Vec3) {
+        Self {
+            theta_h: angles[0],
+            phi_h: 0.0,
+            theta_d: angles[1],
+            phi_d: angles[2],
+        }
+        .to_directions()
+    }
+
+    /// The direction pairs at the centres of an `nh x nd x np` grid of
+    /// half-difference cells (`theta_h` warped by a square root, so that
+    /// cells are fine at the specular peak; `theta_d` over `[0, pi/2]`,
+    /// `phi_d` over `[0, pi]`), in that order, those below the horizon left
+    /// out: the dense grids on which fits are checked.
+    pub fn cell_centres([nh, nd, np]: [usize; 3]) -> Vec<(Vec3, Vec3)> {
+        (0..nh * nd * np)
+            .map(|n| {
+                let (i, j, k) = (n / (nd * np), (n / np) % nd, n % np);
+                let u = (i as f64 + 0.5) / nh as f64;
+                Self::pair_at([
+                    u * u * PI / 2.0,
+                    (j as f64 + 0.5) / nd as f64 * PI / 2.0,
+                    (k as f64 + 0.5) / np as f64 * PI,
+                ])
+            })
+            .filter(|(wi, wo)| wi[2] > 0.0 && wo[2] > 0.0)
+            .collect()
+    }
+
     /// The direction pair `(wi, wo)`.
     pub fn to_directions(self) -> (Vec3, Vec3) {
         let diff = from_spherical(self.theta_d, self.phi_d);

@@ -281,13 +281,7 @@ fn eval_at(
     phi_d: f64,
     min_cos: f64,
 ) -> Option<([f64; 3], f64)> {
-    let (wi, wo) = HalfDiff {
-        theta_h,
-        phi_h: 0.0,
-        theta_d,
-        phi_d,
-    }
-    .to_directions();
+    let (wi, wo) = HalfDiff::pair_at([theta_h, theta_d, phi_d]);
     if wi[2] <= min_cos.max(1e-9) || wo[2] <= min_cos.max(1e-9) {
         return None;
     }

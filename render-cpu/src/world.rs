@@ -78,21 +78,7 @@ impl FitInDomain {
 /// See [`FitInDomain::f32_error`].
 fn f32_error(fit: &brdf::FittedBrdf, compact: &brdf::CompactBrdf) -> f64 {
     use rayon::prelude::*;
-    let (nh, nd, np) = (24, 24, 12);
-    let pairs: Vec<(brdf::Vec3, brdf::Vec3)> = (0..nh * nd * np)
-        .map(|n| {
-            let (i, j, k) = (n / (nd * np), (n / np) % nd, n % np);
-            let u = (i as f64 + 0.5) / nh as f64;
-            brdf::HalfDiff {
-                theta_h: u * u * std::f64::consts::FRAC_PI_2,
-                phi_h: 0.0,
-                theta_d: (j as f64 + 0.5) / nd as f64 * std::f64::consts::FRAC_PI_2,
-                phi_d: (k as f64 + 0.5) / np as f64 * std::f64::consts::PI,
-            }
-            .to_directions()
-        })
-        .filter(|(wi, wo)| wi[2] > 0.0 && wo[2] > 0.0)
-        .collect();
+    let pairs = brdf::HalfDiff::cell_centres([24, 24, 12]);
     let values: Vec<([f64; 3], [f32; 3])> = pairs
         .par_iter()
         .map(|&(wi, wo)| {
