@@ -317,6 +317,18 @@ fn fit_eval_export_and_plot_a_merl_file() {
     assert!(String::from_utf8_lossy(&out.stdout).contains("degree weights 1,2"));
     let json = std::fs::read_to_string(&fit).unwrap();
     assert!(json.contains("\"degree_weights\""), "{json}");
+    // The peak check: printed, stored, and the ceiling never raises a value.
+    assert!(String::from_utf8_lossy(&out.stdout).contains("x the table's peak"));
+    let v: serde_json::Value = serde_json::from_str(&json).unwrap();
+    let (ratio, without) = (
+        v["peak"]["ratio"].as_f64().unwrap(),
+        v["peak"]["ratio_without_ceiling"].as_f64().unwrap(),
+    );
+    assert!(
+        ratio > 0.5 && ratio <= without && ratio <= 2.0,
+        "{ratio} {without}"
+    );
+    assert_eq!(v["brdf"]["ceiling"].as_array().map(Vec::len), Some(3));
     let dirs = dir.join("dirs.csv");
     std::fs::write(
         &dirs,
