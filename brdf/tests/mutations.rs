@@ -13,28 +13,14 @@ use common::{data_dir, tensor_field};
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::{Path, PathBuf};
 
-/// SplitMix64: the mutation generator.
-struct Gen(u64);
-
-impl Gen {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-
-    fn below(&mut self, n: usize) -> usize {
-        (self.next() % n.max(1) as u64) as usize
-    }
-}
+/// The mutation generator.
+type Gen = ratfit_tests::SplitMix64;
 
 /// `count` mutations of `bytes`: truncations, flipped bits, bytes set to
 /// 0x00 / 0xff, and (for text) digits and separators replaced. Positions
 /// favour the first 4 KB, where the headers are.
 fn mutations(bytes: &[u8], count: usize, seed: u64) -> Vec<(String, Vec<u8>)> {
-    let mut g = Gen(seed);
+    let mut g = Gen::new(seed);
     let mut out = Vec::with_capacity(count);
     for _ in 0..count {
         let mut b = bytes.to_vec();
@@ -145,7 +131,7 @@ fn rgl_fields_set_to_extreme_values_never_panic_or_evaluate_to_nan() {
     let path = dir.join("rgl/cm_military_green_rgb.bsdf");
     let good = std::fs::read(&path).unwrap();
     let mut cases = Vec::new();
-    let mut g = Gen(7);
+    let mut g = Gen::new(7);
     for field in ["theta_i", "phi_i", "ndf", "sigma", "vndf", "rgb"] {
         let (offset, width, n) = tensor_field(&good, field);
         for value in [f64::NAN, f64::INFINITY, -1.0, 1e30, 0.0] {

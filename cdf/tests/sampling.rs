@@ -9,15 +9,8 @@ use cdf::{
     albedo_quadrature, chi_square, estimate_albedo, fit_table, CdfFitSettings, CdfTable,
     CosineSampler, RationalCdf, RationalSampler, Sampler, TableSettings, TabulatedSampler,
 };
+use ratfit_tests::data_dir;
 use std::f64::consts::{FRAC_PI_2, PI};
-use std::path::PathBuf;
-
-fn data_dir() -> Option<PathBuf> {
-    let dir = std::env::var_os("RATFIT_DATA")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/data"));
-    dir.is_dir().then_some(dir)
-}
 
 fn table_settings() -> TableSettings {
     TableSettings::default()

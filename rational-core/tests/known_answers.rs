@@ -6,15 +6,8 @@
 //! reports a larger budget has a solver or tolerance bug. Both searches
 //! must find exactly the listed splits.
 
+use ratfit_tests::data_dir;
 use rational_core::{fit, FitSettings, IntervalData, PoleControl, Search, Selection};
-use std::path::PathBuf;
-
-fn data_dir() -> Option<PathBuf> {
-    let dir = std::env::var_os("RATFIT_DATA")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/data"));
-    dir.is_dir().then_some(dir)
-}
 
 /// Reads whitespace-separated numeric rows of an ALTA text file.
 fn read_alta(path: &std::path::Path) -> Vec<Vec<f64>> {

@@ -3,15 +3,9 @@
 //! 1 x 1 render of a tilted plane, seen along `wo` and lit by a directional
 //! light along `wi` of irradiance 1, must equal `f(wi, wo) cos(theta_i)`.
 
+use ratfit_tests::data_dir;
 use render_cpu::{prepare, render, Camera, Frame, Light, RenderOptions, SceneDescription};
 use std::path::{Path, PathBuf};
-
-fn data_dir() -> Option<PathBuf> {
-    let dir = std::env::var_os("RATFIT_DATA")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/data"));
-    dir.is_dir().then_some(dir)
-}
 
 fn spherical(theta: f64, phi: f64) -> [f64; 3] {
     [

@@ -1,15 +1,9 @@
 //! A scene whose fitted material asks for a render error (`target_de`)
 //! prepares and renders on a glossy measured material.
 
+use ratfit_tests::data_dir;
 use render_cpu::{prepare, render, RenderOptions, SceneDescription};
-use std::path::{Path, PathBuf};
-
-fn data_dir() -> Option<PathBuf> {
-    let dir = std::env::var_os("RATFIT_DATA")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/data"));
-    dir.is_dir().then_some(dir)
-}
+use std::path::Path;
 
 #[test]
 fn a_target_de_scene_renders_a_glossy_rgl_file() {

@@ -34,16 +34,16 @@ fn gpu(test: &str) -> Option<GpuContext> {
     }
 }
 
-/// A small deterministic generator (SplitMix64).
-struct Rng(u64);
+/// The suites' seeded generator, with directions.
+struct Rng(ratfit_tests::SplitMix64);
 
 impl Rng {
+    fn new(seed: u64) -> Self {
+        Self(ratfit_tests::SplitMix64::new(seed))
+    }
+
     fn next(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+        self.0.next_f64()
     }
 
     /// A direction of the upper hemisphere, uniform in solid angle; one in
@@ -58,7 +58,7 @@ impl Rng {
 }
 
 fn pairs(n: usize, seed: u64) -> Vec<DirectionPair> {
-    let mut rng = Rng(seed);
+    let mut rng = Rng::new(seed);
     (0..n).map(|_| (rng.direction(), rng.direction())).collect()
 }
 
@@ -82,7 +82,7 @@ fn indices(dims: usize, degree: u16) -> Vec<Vec<u16>> {
 /// A rational function with random coefficients and a denominator kept
 /// within [0.5, 1.5] on its domain, in each coordinate system and family.
 fn synthetic(family: BasisFamily, coordinates: Coordinates, dims: usize, seed: u64) -> CompactBrdf {
-    let mut rng = Rng(seed);
+    let mut rng = Rng::new(seed);
     let max_theta_d = 80f32.to_radians();
     let (lower, upper) = match coordinates {
         Coordinates::Radians => (

@@ -1,14 +1,6 @@
 //! Helpers shared by the reader tests.
 
-use std::path::PathBuf;
-
-/// The data directory: `RATFIT_DATA`, else `../shared/data`.
-pub fn data_dir() -> Option<PathBuf> {
-    let dir = std::env::var_os("RATFIT_DATA")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/data"));
-    dir.is_dir().then_some(dir)
-}
+pub use ratfit_tests::data_dir;
 
 /// Byte offset, element width and element count of field `name`.
 pub fn tensor_field(bytes: &[u8], name: &str) -> (usize, usize, usize) {
