@@ -22,30 +22,24 @@
 //! # Ok::<(), brdf::BrdfError>(())
 //! ```
 
-mod alta_rational;
 mod analytic;
 pub mod baseline;
 mod cap;
 mod colour;
-pub mod compact;
-pub mod compact_batch;
 mod design;
 mod downsample;
 mod error;
+pub mod export;
 pub mod fidelity;
 mod fit_report;
 mod fitted;
 mod fitting;
 mod geometry;
+pub mod io;
 mod lobe;
 mod material;
-pub mod merl;
 mod reduce;
-pub mod rgl;
-mod scattered;
-pub mod shader;
 
-pub use alta_rational::{AltaChannel, AltaRational};
 pub use analytic::{schlick, AshikhminShirley, BlinnPhong, CookTorranceGgx, Lambert};
 pub use cap::CapCheck;
 pub use colour::{luminance, ColourMode, LUMINANCE_WEIGHTS};
@@ -56,6 +50,8 @@ pub use design::{
 };
 pub use downsample::DownsampledTable;
 pub use error::{write_atomic, BrdfError};
+pub use export::alta::{AltaChannel, AltaRational};
+pub use export::{compact, compact_batch, shader};
 pub use fit_report::{BrdfFitReport, ChannelReport};
 pub use fitted::{FittedBrdf, CEILING_OVER_PEAK};
 pub use fitting::{
@@ -64,9 +60,11 @@ pub use fitting::{
 pub use geometry::{
     clamp_elevation, cross, dot, from_spherical, normalize, rotate, to_spherical, HalfDiff, Vec3,
 };
+pub use io::alta::AltaData;
+pub use io::cornell::{cie_xyz, spectrum_to_rgb, xyz_to_linear_srgb, ScatteredBrdf};
+pub use io::{merl, rgl};
 pub use lobe::{Lobe, LobeF32, LOBE_ALPHA_RANGE};
 pub use material::Brdf;
 pub use merl::{MerlBrdf, TabulateOptions};
 pub use reduce::{Coordinates, Reduction, ReductionKind, Samples, MAX_BINS};
 pub use rgl::RglBrdf;
-pub use scattered::{cie_xyz, spectrum_to_rgb, xyz_to_linear_srgb, AltaData, ScatteredBrdf};
