@@ -363,7 +363,7 @@ fn run_fit_target(
         Some(_) => render_cpu::fidelity::TargetReduction::Fixed,
     };
     let (fitted, target_report) = render_cpu::fidelity::fit_to_target(
-        material,
+        material.clone(),
         target,
         &settings,
         mode,
@@ -378,7 +378,9 @@ fn run_fit_target(
         fitted.reduction.dims()
     );
     println!("{target_report}");
-    Ok(serde_json::json!({ "brdf": fitted, "target": target_report }))
+    let peak = peak_check(material.as_ref(), &fitted);
+    println!("{peak}");
+    Ok(serde_json::json!({ "brdf": fitted, "target": target_report, "peak": peak }))
 }
 
 /// ALTA text data: each output fitted in the file's own parametrisation.
