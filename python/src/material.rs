@@ -338,7 +338,8 @@ impl FittedMaterial {
         self.fitted.coefficients()
     }
 
-    /// Bytes of the representation stored as f32 (lobe included).
+    /// Bytes of the representation stored as f32: the coefficients, the
+    /// lobe and the ceiling when there are.
     #[getter]
     fn nbytes(&self) -> usize {
         self.fitted.byte_size_f32()

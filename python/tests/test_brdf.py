@@ -36,7 +36,10 @@ def test_fit_reports_what_it_reached(fitted):
     # The default render check: both validation scenes, finite errors.
     scenes = r["render"]["scenes"]
     assert len(scenes) == 2 and all(0 <= s["mean_de"] < 30 for s in scenes)
-    assert fitted.nbytes == 4 * fitted.coefficients
+    # The coefficients and the ceiling (three f32) on the RGB values.
+    assert fitted.nbytes == 4 * fitted.coefficients + 12
+    ceiling = json.loads(fitted.to_json())["brdf"]["ceiling"]
+    assert len(ceiling) == 3 and all(c > 0 for c in ceiling)
     assert [c.dim for c in fitted.channels] == [2, 2, 2]
 
 
