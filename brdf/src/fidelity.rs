@@ -3,6 +3,7 @@
 //! largest value anywhere against the table's peak (an exploding fit must
 //! show).
 
+use crate::fitted::FittedBrdf;
 use crate::geometry::{from_spherical, HalfDiff, Vec3};
 use crate::Brdf;
 use rayon::prelude::*;
@@ -113,33 +114,89 @@ fn percentile(sorted: &[f64], q: f64) -> f64 {
     sorted[i]
 }
 
+/// Largest value per channel on `pairs` with both elevations above
+/// `cos_min` (NaN counts as infinite).
+fn maxima(b: &dyn Brdf, pairs: &[(Vec3, Vec3)], cos_min: f64) -> [f64; 3] {
+    pairs
+        .par_iter()
+        .filter(|(wi, wo)| wi[2].min(wo[2]) > cos_min)
+        .map(|&(wi, wo)| b.eval(wi, wo))
+        .reduce(
+            || [0.0; 3],
+            |a, v| [0, 1, 2].map(|c| a[c].max(if v[c].is_nan() { f64::INFINITY } else { v[c] })),
+        )
+}
+
+/// The table's peak per channel on the grid's pairs: within 80 degrees of
+/// the normal, since measured tables divide by a vanishing cosine at the
+/// horizon.
+fn table_peak(table: &dyn Brdf, pairs: &[(Vec3, Vec3)]) -> [f64; 3] {
+    maxima(table, pairs, 80f64.to_radians().cos())
+}
+
+/// The worse channel's ratio of a candidate's largest values to the table's.
+fn worst_ratio(candidate: [f64; 3], table: [f64; 3]) -> f64 {
+    (0..3)
+        .filter(|&c| table[c] > 0.0)
+        .map(|c| candidate[c] / table[c])
+        .fold(0.0, f64::max)
+}
+
 /// The peak check of [`hemisphere_errors`]: the candidate's largest value on
-/// a dense `grid` of the whole hemisphere over the table's (within 80
-/// degrees of the normal), the worse channel, and the table's peak.
+/// a dense `grid` of the whole hemisphere (cell centres of sqrt-warped
+/// `theta_h`, `theta_d`, `phi_d`) over the table's, the worse channel, and
+/// the table's peak.
 pub fn peaks(table: &dyn Brdf, candidate: &dyn Brdf, grid: [usize; 3]) -> (f64, [f64; 3]) {
-    // The dense grid: cell centres of (sqrt-warped theta_h, theta_d, phi_d).
-    let grid: Vec<(Vec3, Vec3)> = HalfDiff::cell_centres(grid);
-    // Measured tables divide by a vanishing cosine at the horizon: their
-    // peak is taken within 80 degrees of the normal, the candidate's
-    // everywhere.
-    let trusted = 80f64.to_radians().cos();
-    let maxima = |b: &dyn Brdf, cos_min: f64| {
-        grid.par_iter()
-            .filter(|(wi, wo)| wi[2].min(wo[2]) > cos_min)
-            .map(|&(wi, wo)| b.eval(wi, wo))
-            .reduce(
-                || [0.0; 3],
-                |a, v| {
-                    [0, 1, 2].map(|c| a[c].max(if v[c].is_nan() { f64::INFINITY } else { v[c] }))
-                },
-            )
+    let pairs = HalfDiff::cell_centres(grid);
+    let table_peak = table_peak(table, &pairs);
+    (
+        worst_ratio(maxima(candidate, &pairs, 0.0), table_peak),
+        table_peak,
+    )
+}
+
+/// The peak check of a fit, with its ceiling and without.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct FitPeaks {
+    /// The grid (`theta_h`, `theta_d`, `phi_d` cells).
+    pub grid: [usize; 3],
+    /// The fit's largest value over the table's peak, the worse channel.
+    pub ratio: f64,
+    /// The same for the fit's functions alone, without the ceiling.
+    pub ratio_without_ceiling: f64,
+}
+
+/// [`peaks`] of a fit with its ceiling and without, evaluating the table
+/// and the fit once each: the ceiling is a minimum per channel, so the
+/// largest ceiled value is the ceiling's minimum with the largest value.
+pub fn fit_peaks(table: &dyn Brdf, fit: &FittedBrdf, grid: [usize; 3]) -> FitPeaks {
+    let pairs = HalfDiff::cell_centres(grid);
+    let table_peak = table_peak(table, &pairs);
+    let unclamped = FittedBrdf {
+        ceiling: None,
+        ..fit.clone()
     };
-    let (table_peak, cand_peak) = (maxima(table, trusted), maxima(candidate, 0.0));
-    let peak_ratio = (0..3)
-        .filter(|&c| table_peak[c] > 0.0)
-        .map(|c| cand_peak[c] / table_peak[c])
-        .fold(0.0, f64::max);
-    (peak_ratio, table_peak)
+    let largest = maxima(&unclamped, &pairs, 0.0);
+    let ceiled = match fit.ceiling {
+        Some(c) => [0, 1, 2].map(|k| largest[k].min(c[k])),
+        None => largest,
+    };
+    FitPeaks {
+        grid,
+        ratio: worst_ratio(ceiled, table_peak),
+        ratio_without_ceiling: worst_ratio(largest, table_peak),
+    }
+}
+
+impl std::fmt::Display for FitPeaks {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let [a, b, c] = self.grid;
+        write!(
+            f,
+            "largest value on a {a} x {b} x {c} grid of the hemisphere: {:.3}x the table's peak (without the ceiling: {:.3}x)",
+            self.ratio, self.ratio_without_ceiling
+        )
+    }
 }
 
 /// Relative luminance errors of `candidate` against `table` by band of the

@@ -455,6 +455,24 @@ fn the_ceiling_bounds_every_evaluation_path() {
         held[0] > held[1] && held[1] > held[2] && held[2] > 0,
         "{held:?}"
     );
+    // The peak check of a fit, from one evaluation, equals the check of the
+    // fit and of its functions alone.
+    let table = CookTorranceGgx {
+        kd: [0.05, 0.1, 0.3],
+        f0: [0.04; 3],
+        alpha: 0.2,
+    };
+    let grid = [24, 24, 12];
+    let p = brdf::fidelity::fit_peaks(&table, &fit, grid);
+    let unclamped = FittedBrdf {
+        ceiling: None,
+        ..fit.clone()
+    };
+    let with = brdf::fidelity::peaks(&table, &fit, grid).0;
+    assert_eq!(p.ratio.to_bits(), with.to_bits());
+    let without = brdf::fidelity::peaks(&table, &unclamped, grid).0;
+    assert_eq!(p.ratio_without_ceiling.to_bits(), without.to_bits());
+    assert!(p.ratio < p.ratio_without_ceiling, "{p:?}");
     // A fit file's ceiling is checked on load.
     let mut json = serde_json::to_value(&fit).unwrap();
     json["ceiling"] = serde_json::json!([1.0, -1.0, 1.0]);

@@ -252,38 +252,10 @@ pub fn fit_to_json(args: &FitArgs) -> Result<serde_json::Value> {
     Ok(serde_json::json!({ "brdf": fitted, "report": report, "render": render, "peak": peak }))
 }
 
-/// The peak check of `ratfit bench fidelity` on a fit: its largest value on
-/// a dense grid of the whole hemisphere over the table's peak there, with
-/// its ceiling and without.
-#[derive(Debug, serde::Serialize)]
-struct PeakCheck {
-    grid: [usize; 3],
-    ratio: f64,
-    ratio_without_ceiling: f64,
-}
-
-fn peak_check(table: &dyn Brdf, fitted: &FittedBrdf) -> PeakCheck {
+/// The peak check of `ratfit bench fidelity` on a fit, on its grid.
+fn peak_check(table: &dyn Brdf, fitted: &FittedBrdf) -> brdf::fidelity::FitPeaks {
     let grid = brdf::fidelity::HemisphereSettings::default().grid;
-    let unclamped = FittedBrdf {
-        ceiling: None,
-        ..fitted.clone()
-    };
-    PeakCheck {
-        grid,
-        ratio: brdf::fidelity::peaks(table, fitted, grid).0,
-        ratio_without_ceiling: brdf::fidelity::peaks(table, &unclamped, grid).0,
-    }
-}
-
-impl std::fmt::Display for PeakCheck {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        let [a, b, c] = self.grid;
-        write!(
-            f,
-            "largest value on a {a} x {b} x {c} grid of the hemisphere: {:.3}x the table's peak (without the ceiling: {:.3}x)",
-            self.ratio, self.ratio_without_ceiling
-        )
-    }
+    brdf::fidelity::fit_peaks(table, fitted, grid)
 }
 
 /// What a user judges: the fit's renders against the table's on the two

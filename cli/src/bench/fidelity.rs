@@ -556,13 +556,8 @@ fn with_unclamped_peak(note: String, judge: &Judge, fitted: &brdf::FittedBrdf) -
     if fitted.ceiling.is_none() {
         return note;
     }
-    let unclamped = brdf::FittedBrdf {
-        ceiling: None,
-        ..fitted.clone()
-    };
-    let grid = judge.plan.hemisphere.grid;
-    let (with, _) = brdf::fidelity::peaks(judge.table, fitted, grid);
-    let (without, _) = brdf::fidelity::peaks(judge.table, &unclamped, grid);
+    let p = brdf::fidelity::fit_peaks(judge.table, fitted, judge.plan.hemisphere.grid);
+    let (with, without) = (p.ratio, p.ratio_without_ceiling);
     if without > with * (1.0 + 1e-9) {
         format!("{note}; the ceiling holds: peak x{without:.2} without it")
     } else {
