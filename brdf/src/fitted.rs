@@ -27,8 +27,10 @@ pub struct FittedBrdf {
     /// representation), when there is one.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub lobe: Option<Lobe>,
-    /// The largest RGB value any evaluation returns ([`CEILING_OVER_PEAK`]
-    /// times each channel's largest measured value), when there is one.
+    /// The largest RGB value any evaluation returns, when there is one:
+    /// [`CEILING_OVER_PEAK`] times each channel's largest measured value
+    /// within 80 degrees of the normal, or a higher value measured beyond,
+    /// or in RGB mode the cap check's cap where that is higher.
     /// Between samples nothing else bounds `p / q`: the cap check pushes the
     /// fit below its cap where a refit is feasible, and the ceiling holds
     /// where it is not, or between the check's grid points.
@@ -38,10 +40,11 @@ pub struct FittedBrdf {
     pub name: String,
 }
 
-/// The ceiling of a fit's RGB values over the largest measured value of
-/// each channel: the fidelity target's bound on the peak (a fit may exceed
-/// the table's peak between samples, by its interval at the peak and
-/// then some, but never by more than this).
+/// The ceiling of a fit's RGB values over the largest value measured
+/// within 80 degrees of the normal in each channel: the fidelity target's
+/// bound on the peak (a fit may exceed the table's peak between samples,
+/// by its interval at the peak and then some, but not by more than this,
+/// unless [`FittedBrdf::ceiling`] was raised).
 pub const CEILING_OVER_PEAK: f64 = 2.0;
 
 /// The serialised form of a [`FittedBrdf`], checked on the way in.

@@ -329,9 +329,11 @@ fn measured_peaks(samples: &Samples) -> Peaks {
 }
 
 /// The fit's ceiling: [`CEILING_OVER_PEAK`] times each channel's trusted
-/// peak, raised where needed so that it cuts nothing the data allow: to the
-/// largest measured value anywhere, and in RGB mode to the channel's cap.
-/// None when a channel has no positive value.
+/// peak, raised to the largest measured value anywhere (so that at a sample
+/// the ceiling only brings an overshooting value nearer its measurement,
+/// and a value inside its interval stays inside) and, in RGB mode, to the
+/// channel's cap (so that it never holds a fit below the cap check's own
+/// limit). None when a channel has no positive value.
 fn ceiling(
     peaks: Peaks,
     settings: &BrdfFitSettings,
