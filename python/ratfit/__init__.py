@@ -154,7 +154,9 @@ def fit_brdf(path: str, format: Optional[str] = None, **options: Any) -> FittedM
             keeps every fit under 1.5x the channel's peak; default 2),
             ``colour`` ("rgb" or "luminance-chroma"),
             ``lobe`` (an analytic GGX lobe times the rational functions),
-            ``max_coeffs``, ``search``, ``target_de`` (the smallest fit whose
+            ``max_coeffs``, ``search`` ("staircase"; "exhaustive" visits every
+            split, for the same fits on real materials in several times the
+            time), ``target_de`` (the smallest fit whose
             validation renders reach that mean CIEDE2000), ``time_budget``,
             ``render_check`` (default True: render the fit beside the table
             on the two validation scenes and report the CIEDE2000 reached).

@@ -260,8 +260,7 @@ impl BrdfOptions {
         let target = self.target_de.is_some();
         let search = match &self.search {
             Some(s) => s.parse::<Search>().map_err(|e| fit_error(py, e))?,
-            None if target => Search::Staircase,
-            None => Search::Exhaustive,
+            None => Search::Staircase,
         };
         let backend = self
             .backend
