@@ -200,6 +200,8 @@ pub(crate) const STACK_TABLE: usize = 512;
 /// smaller than `STACK_TABLE`, since the two tables are cleared on every
 /// call of a per-sample path (inverse CDFs have low degrees).
 pub(crate) const PARTIAL_TABLE: usize = 128;
+/// The smaller tables [`Basis::combine_with_partial`] uses when they suffice.
+const SMALL_PARTIAL_TABLE: usize = 32;
 
 /// Most functions a basis may have (a fit file declaring more is refused
 /// before anything is allocated).
@@ -290,6 +292,11 @@ pub struct Basis {
     weights: Vec<u16>,
     indices: Vec<Vec<u16>>,
     max_degree: Vec<usize>,
+    /// `positions[j * dim + l]`: where `phi_{indices[j][l]}` of coordinate
+    /// `l` sits in the univariate tables laid end to end (coordinate by
+    /// coordinate, `max_degree + 1` values each), so the per-sample sums
+    /// index one flat table.
+    positions: Vec<u32>,
 }
 
 /// Serialised form of a [`Basis`]: the indices follow from the rule.
@@ -377,8 +384,24 @@ impl Basis {
             });
         }
         let indices = weighted_graded_indices(weights, len);
-        let max_degree = (0..domain.dim())
+        let max_degree: Vec<usize> = (0..domain.dim())
             .map(|k| indices.iter().map(|i| i[k] as usize).max().unwrap_or(0))
+            .collect();
+        let starts: Vec<usize> = max_degree
+            .iter()
+            .scan(0, |start, m| {
+                let here = *start;
+                *start += m + 1;
+                Some(here)
+            })
+            .collect();
+        let positions = indices
+            .iter()
+            .flat_map(|i| {
+                i.iter()
+                    .zip(&starts)
+                    .map(|(&e, &s)| (s + e as usize) as u32)
+            })
             .collect();
         Ok(Self {
             family,
@@ -386,6 +409,7 @@ impl Basis {
             weights: weights.to_vec(),
             indices,
             max_degree,
+            positions,
         })
     }
 
@@ -554,26 +578,94 @@ impl Basis {
     /// this for every sample, so it allocates nothing for up to
     /// `STACK_DIMS` coordinates and `PARTIAL_TABLE` univariate values.
     pub fn combine_with_partial(&self, x: &[f64], k: usize, a: &[f64], b: &[f64]) -> [f64; 4] {
-        let d = self.dim();
         let total: usize = self.max_degree.iter().map(|m| m + 1).sum();
-        if d > STACK_DIMS || total > PARTIAL_TABLE {
-            return self.combine_with_partial_heap(x, k, a, b);
+        if self.dim() > STACK_DIMS || total > PARTIAL_TABLE {
+            self.combine_with_partial_heap(x, k, a, b)
+        } else if total <= SMALL_PARTIAL_TABLE {
+            // Clearing the tables costs as much as the sums for small bases.
+            self.combine_with_partial_stack::<SMALL_PARTIAL_TABLE>(x, k, a, b)
+        } else {
+            self.combine_with_partial_stack::<PARTIAL_TABLE>(x, k, a, b)
         }
+    }
+
+    /// [`Basis::combine_with_partial`] with tables of `N` values on the
+    /// stack (`N` at least the univariate values of all coordinates).
+    fn combine_with_partial_stack<const N: usize>(
+        &self,
+        x: &[f64],
+        k: usize,
+        a: &[f64],
+        b: &[f64],
+    ) -> [f64; 4] {
         // Univariate values of every coordinate one after the other, and
-        // the derivatives of coordinate k alone.
-        let mut flat = [0.0; PARTIAL_TABLE];
-        let mut deriv = [0.0; PARTIAL_TABLE];
-        let mut offsets = [0usize; STACK_DIMS];
+        // the derivatives of coordinate k at the same places.
+        let mut flat = [0.0; N];
+        let mut deriv = [0.0; N];
         let mut start = 0;
-        for l in 0..d {
+        for l in 0..self.dim() {
             let len = self.max_degree[l] + 1;
-            offsets[l] = start;
             let t = self.domain.map(l, x[l]);
-            let dv = (l == k).then_some(&mut deriv[..len]);
+            let dv = (l == k).then_some(&mut deriv[start..start + len]);
             self.family.values(t, &mut flat[start..start + len], dv);
             start += len;
         }
-        self.accumulate_partial(k, a, b, |l, e| flat[offsets[l] + e], |e| deriv[e])
+        match self.dim() {
+            2 => self.accumulate_flat::<2>(k, a, b, &flat, &deriv),
+            3 => self.accumulate_flat::<3>(k, a, b, &flat, &deriv),
+            _ => {
+                let mut offsets = [0usize; STACK_DIMS];
+                for l in 1..self.dim() {
+                    offsets[l] = offsets[l - 1] + self.max_degree[l - 1] + 1;
+                }
+                self.accumulate_partial(
+                    k,
+                    a,
+                    b,
+                    |l, e| flat[offsets[l] + e],
+                    |e| deriv[offsets[k] + e],
+                )
+            }
+        }
+    }
+
+    /// The sums of [`Basis::accumulate_partial`] in `D` coordinates from the
+    /// flat tables, unrolled over the coordinates (the inverse CDFs' two
+    /// and three).
+    fn accumulate_flat<const D: usize>(
+        &self,
+        k: usize,
+        a: &[f64],
+        b: &[f64],
+        flat: &[f64],
+        deriv: &[f64],
+    ) -> [f64; 4] {
+        let scale = self.domain.scale(k);
+        let n = a.len().max(b.len()).min(self.len());
+        let mut out = [0.0; 4];
+        for (j, p) in self.positions[..n * D].chunks_exact(D).enumerate() {
+            let (ca, cb) = (
+                a.get(j).copied().unwrap_or(0.0),
+                b.get(j).copied().unwrap_or(0.0),
+            );
+            if ca == 0.0 && cb == 0.0 {
+                continue;
+            }
+            let mut others = 1.0;
+            for (l, &at) in p.iter().enumerate() {
+                if l != k {
+                    others *= flat[at as usize];
+                }
+            }
+            let e = p[k] as usize;
+            let v = others * flat[e];
+            let g = others * deriv[e] * scale;
+            out[0] += ca * v;
+            out[1] += cb * v;
+            out[2] += ca * g;
+            out[3] += cb * g;
+        }
+        out
     }
 
     /// [`Basis::combine_with_partial`] with heap tables (many coordinates or
@@ -797,12 +889,13 @@ mod tests {
             BasisFamily::Chebyshev,
             BasisFamily::Legendre,
         ] {
-            for dim in [2usize, 3] {
+            // 40 functions fit the small tables, 200 the large ones.
+            for (dim, len) in [(2usize, 40), (3, 40), (2, 200), (3, 200)] {
                 let domain = Domain {
                     lower: vec![0.0; dim],
                     upper: vec![2.0; dim],
                 };
-                let b = Basis::new(family, domain, 40).unwrap();
+                let b = Basis::new(family, domain, len).unwrap();
                 let a: Vec<f64> = (0..b.len())
                     .map(|j| ((j * 7 % 11) as f64 - 5.0) / 3.0)
                     .collect();
