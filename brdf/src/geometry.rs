@@ -53,11 +53,17 @@ pub fn clamp_elevation(d: Vec3, cos_cut: f64, sin_cut: f64) -> Vec3 {
     [d[0] * sin_cut / s, d[1] * sin_cut / s, cos_cut]
 }
 
-/// `(theta, phi)` of a unit direction; `theta` by a formula that stays
-/// accurate near the normal, `phi` in `(-pi, pi]`.
+/// `(theta, phi)` of a unit direction; `theta` as [`elevation`], `phi` in
+/// `(-pi, pi]`.
 pub fn to_spherical(d: Vec3) -> (f64, f64) {
+    (elevation(d), d[1].atan2(d[0]))
+}
+
+/// `theta` of a unit direction, from its distance to the normal (accurate
+/// near the normal, where `acos(z)` loses half its digits).
+pub fn elevation(d: Vec3) -> f64 {
     let dist = (d[0] * d[0] + d[1] * d[1] + (d[2] - 1.0) * (d[2] - 1.0)).sqrt();
-    (2.0 * (0.5 * dist).clamp(-1.0, 1.0).asin(), d[1].atan2(d[0]))
+    2.0 * (0.5 * dist).clamp(-1.0, 1.0).asin()
 }
 
 /// Rotation of `v` about the unit `axis` by `angle` (Rodrigues).

@@ -58,7 +58,8 @@ pub use fitting::{
     assemble_channels, fit_brdf, fit_samples, fit_samples_channel, BrdfFitSettings, MAX_CAP_ROUNDS,
 };
 pub use geometry::{
-    clamp_elevation, cross, dot, from_spherical, normalize, rotate, to_spherical, HalfDiff, Vec3,
+    clamp_elevation, cross, dot, elevation, from_spherical, normalize, rotate, to_spherical,
+    HalfDiff, Vec3,
 };
 pub use io::alta::AltaData;
 pub use io::cornell::{cie_xyz, spectrum_to_rgb, xyz_to_linear_srgb, ScatteredBrdf};

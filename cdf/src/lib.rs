@@ -33,6 +33,7 @@
 
 mod error;
 mod fit;
+mod mis;
 mod model;
 mod monotone;
 mod report;

@@ -198,6 +198,46 @@ fn measured_materials_sample_without_bias() {
     }
 }
 
+/// The rational sampler's MIS density is its own density, looked up: at
+/// directions it draws itself (where the weights matter), within a few
+/// percent of the exact inversion for half the samples and within 28% for
+/// nine in ten (measured: 0.3% to 2.7% and 2% to 19%; the largest
+/// differences sit where the fitted azimuth map steepens near phi = pi);
+/// zero below the horizon;
+/// the same function for its own samples and for any other direction.
+#[test]
+fn mis_density_follows_the_exact_density() {
+    for material in [&glossy_blinn() as &dyn Brdf, &rough_ggx()] {
+        let (_, cdf) = fitted(material);
+        let rational = RationalSampler::new(cdf);
+        let mut rng = ratfit_tests::SplitMix64::new(7);
+        for deg in [10.0f64, 45.0, 70.0] {
+            let wo = from_spherical(deg.to_radians(), 0.4);
+            assert_eq!(
+                rational.mis_pdf(wo, [0.6, 0.0, -0.8]).to_bits(),
+                0.0f64.to_bits()
+            );
+            let mut log_ratios = Vec::new();
+            for _ in 0..2000 {
+                let Some(s) = rational.sample(wo, [rng.next_f64(), rng.next_f64()]) else {
+                    continue;
+                };
+                let approx = rational.mis_pdf_of_sample(wo, &s);
+                assert_eq!(approx.to_bits(), rational.mis_pdf(wo, s.wi).to_bits());
+                assert!(approx > 0.0 && approx.is_finite(), "{approx}");
+                log_ratios.push((approx / rational.pdf(wo, s.wi)).ln().abs());
+            }
+            log_ratios.sort_by(f64::total_cmp);
+            let median = log_ratios[log_ratios.len() / 2];
+            let p90 = log_ratios[log_ratios.len() * 9 / 10];
+            eprintln!(
+                "view {deg}: |ln(mis_pdf / pdf)| median {median:.3}, 90th percentile {p90:.3}"
+            );
+            assert!(median < 0.05 && p90 < 0.25, "{median} {p90}");
+        }
+    }
+}
+
 #[test]
 fn json_round_trip_is_exact_and_checked() {
     let (_, cdf) = fitted(&rough_ggx());

@@ -211,7 +211,9 @@ pub fn radiance(scene: &Scene, camera_ray: Ray, rng: &mut Rng) -> [f64; 3] {
             break;
         }
         beta = mul(beta, f.map(|v| v * cos * s.inv_pdf));
-        previous = Some(1.0 / s.inv_pdf);
+        // The MIS weight of this direction, from the same density the light
+        // samples are weighed with (the sampler's `mis_pdf`).
+        previous = Some(material.sampler.mis_pdf_of_sample(wo, &s));
         ray = Ray::new(offset(hit.point, ng), normalize(wi_world));
         if depth >= 3 {
             let q = max_component(beta).min(0.95);
@@ -358,7 +360,7 @@ fn direct(scene: &Scene, s: &Shading, rng: &mut Rng) -> [f64; 3] {
                     if scene.unoccluded(&s.shadow_ray(dir, dist * (1.0 - 1e-9))) {
                         let light_pdf = dist * dist / (area * cos_l);
                         let w = if mis {
-                            balance(light_pdf, s.material.sampler.pdf(s.wo, wi))
+                            balance(light_pdf, s.material.sampler.mis_pdf(s.wo, wi))
                         } else {
                             1.0
                         };
@@ -374,7 +376,7 @@ fn direct(scene: &Scene, s: &Shading, rng: &mut Rng) -> [f64; 3] {
             let (dir, pdf) = env.sample(rng.pair());
             if let Some((fc, wi)) = s.reflect(dir) {
                 if pdf > 0.0 && scene.unoccluded(&s.shadow_ray(dir, f64::INFINITY)) {
-                    let w = balance(pdf, s.material.sampler.pdf(s.wo, wi));
+                    let w = balance(pdf, s.material.sampler.mis_pdf(s.wo, wi));
                     l = add(l, scale(mul(fc, env.radiance(dir)), w / pdf));
                 }
             }
