@@ -391,3 +391,78 @@ fn alta_vertical_segments_are_checked() {
     assert!(brdf::AltaData::read(&p).is_ok());
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// Inputs the fuzzer (`fuzz/run.sh`) found, one per class: each now gets a
+/// named error or a finite value.
+#[test]
+fn fuzzer_findings_are_named_errors_or_finite() {
+    let path = Path::new("found.txt");
+    // ALTA data: `#DIM` sizes bounded before a row is sized by them, once,
+    // before the data.
+    for (text, says) in [
+        ("#DIM 18446744073709551615 1\n0.5 1.0\n", "#DIM"),
+        ("#DIM 1 100000\n0.5 1.0\n", "outputs"),
+        (
+            "#DIM 1 3\n0.9 0.1 0.08 0.06\n#DIM 2 3\n0.5 0.5 1 2 3\n",
+            "second `#DIM`",
+        ),
+        (
+            "#DIM 1 1\n0.5 1.0\n#VS 2\n0.5 1.0 0.9 1.1\n",
+            "after the data rows",
+        ),
+    ] {
+        let e = brdf::AltaData::parse(text, path).unwrap_err().to_string();
+        assert!(e.contains(says), "{text:?}: {e}");
+    }
+    // ALTA rational functions: an input count past the limit, counts whose
+    // sum overflows, and a denominator that is identically zero.
+    let header = "#ALTA FUNC HEADER\n#DIM 1 1\n#PARAM_IN COS_TH\n#ALTA HEADER END\n#FUNC rational_function\n#MIN 0.0\n#MAX 1.0\n";
+    for (text, says) in [
+        (
+            "#DIM 0018446744073709551615 1\n#NP 1\n#NQ 1\n0\t0\t1.0\n".to_string(),
+            "#DIM",
+        ),
+        (
+            format!("{header}#NP 18446744073709551615\n#NQ 1\n0\t1.0\n"),
+            "coefficients",
+        ),
+        (
+            format!("{header}#NP 1\n#NQ 2\n0\t1.0\n0\t0.0\n1\t0.0\n"),
+            "identically zero",
+        ),
+    ] {
+        let e = brdf::AltaRational::parse(&text, path)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains(says), "{text:?}: {e}");
+    }
+    let Some(dir) = data_dir() else {
+        eprintln!("SKIPPED the RGL part of fuzzer_findings: no data directory (set RATFIT_DATA)");
+        return;
+    };
+    let rgl = dir.join("rgl/cm_military_green_rgb.bsdf");
+    let good = std::fs::read(&rgl).unwrap();
+    // VNDF rows without mass where the half vector sits (rows run along
+    // theta_m at fixed phi_m; at normal incidence phi_m maps to the middle
+    // rows, 63 and 64 of 128): the warp has nothing to invert there; the
+    // value stays finite.
+    let (offset, width, _) = tensor_field(&good, "vndf");
+    assert_eq!(width, 4);
+    let mut bytes = good.clone();
+    for k in 63 * 128..65 * 128 {
+        let at = offset + 4 * k;
+        bytes[at..at + 4].copy_from_slice(&0f32.to_le_bytes());
+    }
+    let m = RglBrdf::from_bytes(&bytes, &rgl, "edited".into()).unwrap();
+    let n = [0.0, 0.0, 1.0];
+    let v = m.eval(n, n);
+    assert!(v.iter().all(|x| x.is_finite()), "{v:?}");
+    // A projected area of zero would divide the NDF by zero.
+    let (offset, _, _) = tensor_field(&good, "sigma");
+    let mut bytes = good.clone();
+    bytes[offset..offset + 4].copy_from_slice(&0f32.to_le_bytes());
+    let e = RglBrdf::from_bytes(&bytes, &rgl, "edited".into())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("sigma"), "{e}");
+}

@@ -196,6 +196,15 @@ impl AltaRational {
     /// lines of the wrong shape, non-finite values.
     pub fn read(path: &Path) -> Result<Self, BrdfError> {
         let text = std::fs::read_to_string(path).map_err(|e| BrdfError::io(path, e))?;
+        Self::parse(&text, path)
+    }
+
+    /// Parses the text of an ALTA rational function file; `path` names it
+    /// in errors.
+    ///
+    /// # Errors
+    /// As [`AltaRational::read`], but for the file's own reading.
+    pub fn parse(text: &str, path: &Path) -> Result<Self, BrdfError> {
         let bad = |r: String| BrdfError::malformed(path, "ALTA rational function", r);
         let mut dim = None;
         let mut param_in = String::new();
@@ -231,17 +240,27 @@ impl AltaRational {
             if let Some(h) = t.strip_prefix('#') {
                 let mut it = h.split_whitespace();
                 match it.next() {
-                    Some("DIM") => dim = it.next().and_then(|v| v.parse::<usize>().ok()),
+                    Some("DIM") => {
+                        dim = it.next().and_then(|v| v.parse::<usize>().ok());
+                        // Checked here, before the coefficient lines size by it.
+                        if let Some(d) =
+                            dim.filter(|d| !(1..=rational_core::MAX_DIMENSION).contains(d))
+                        {
+                            return Err(bad(format!(
+                                "line {no}: `#DIM` {d} is outside 1..={}",
+                                rational_core::MAX_DIMENSION
+                            )));
+                        }
+                    }
                     Some("PARAM_IN") => param_in = it.collect::<Vec<_>>().join(" "),
                     Some("MIN") => min = parse_vec(it, no)?,
                     Some("MAX") => max = parse_vec(it, no)?,
                     Some("NP") => {
                         if let (Some(p), Some(q)) = (np, nq) {
-                            if coeffs.len() != p + q {
+                            if Some(coeffs.len()) != p.checked_add(q) {
                                 return Err(bad(format!(
-                                    "line {no}: {} coefficients before, expected {}",
+                                    "line {no}: {} coefficients before, expected {p} + {q}",
                                     coeffs.len(),
-                                    p + q
                                 )));
                             }
                             flush(&min, &max, p, &mut coeffs);
@@ -262,11 +281,10 @@ impl AltaRational {
             np.ok_or_else(|| bad("no `#NP`".into()))?,
             nq.ok_or_else(|| bad("no `#NQ`".into()))?,
         );
-        if coeffs.len() != p + q {
+        if Some(coeffs.len()) != p.checked_add(q) {
             return Err(bad(format!(
-                "last channel has {} coefficients, expected {}",
+                "last channel has {} coefficients, expected {p} + {q}",
                 coeffs.len(),
-                p + q
             )));
         }
         if min.len() != d || max.len() != d {
@@ -339,6 +357,11 @@ fn check_channels(
         if c.numerator.is_empty() || c.denominator.is_empty() {
             return Err(bad(format!(
                 "channel {k}: an empty numerator or denominator"
+            )));
+        }
+        if c.denominator.iter().all(|(_, v)| *v == 0.0) {
+            return Err(bad(format!(
+                "channel {k}: the denominator is identically zero"
             )));
         }
         let too_high = c

@@ -24,6 +24,10 @@ pub struct AltaData {
     pub intervals: Option<Vec<Vec<(f64, f64)>>>,
 }
 
+/// Most outputs per row an ALTA data file may declare (`#DIM n m`); every
+/// row then holds `n + m` to `n + 3 m` numbers.
+pub const MAX_ALTA_OUTPUTS: usize = 256;
+
 impl AltaData {
     /// Reads an ALTA data file (`.alta`, `.dat`).
     ///
@@ -32,6 +36,14 @@ impl AltaData {
     /// values.
     pub fn read(path: &Path) -> Result<Self, BrdfError> {
         let text = std::fs::read_to_string(path).map_err(|e| BrdfError::io(path, e))?;
+        Self::parse(&text, path)
+    }
+
+    /// Parses the text of an ALTA data file; `path` names it in errors.
+    ///
+    /// # Errors
+    /// As [`AltaData::read`], but for the file's own reading.
+    pub fn parse(text: &str, path: &Path) -> Result<Self, BrdfError> {
         let bad = |r: String| BrdfError::malformed(path, "ALTA data", r);
         let (mut dim, mut vs) = (None, 0usize);
         let (mut param_in, mut param_out) = (String::new(), String::new());
@@ -45,12 +57,24 @@ impl AltaData {
             if let Some(h) = t.strip_prefix('#') {
                 let mut it = h.split_whitespace();
                 match it.next() {
+                    // The row shape follows from `#DIM` and `#VS`: both
+                    // once, before the data.
+                    Some(key @ ("DIM" | "VS")) if !rows.is_empty() || (key == "DIM" && dim.is_some()) => {
+                        return Err(bad(format!(
+                            "line {}: `#{key}` after the data rows or a second `#DIM`",
+                            no + 1
+                        )));
+                    }
                     Some("DIM") => {
                         let v: Vec<usize> = it.filter_map(|x| x.parse().ok()).collect();
-                        if v.len() != 2 || v[0] == 0 || v[1] == 0 {
+                        if v.len() != 2
+                            || !(1..=rational_core::MAX_DIMENSION).contains(&v[0])
+                            || !(1..=MAX_ALTA_OUTPUTS).contains(&v[1])
+                        {
                             return Err(bad(format!(
-                                "line {}: `#DIM` needs two positive sizes",
-                                no + 1
+                                "line {}: `#DIM` needs two sizes, 1..={} inputs and 1..={MAX_ALTA_OUTPUTS} outputs",
+                                no + 1,
+                                rational_core::MAX_DIMENSION
                             )));
                         }
                         dim = Some((v[0], v[1]));

@@ -83,6 +83,14 @@ impl ScatteredBrdf {
     /// non-finite or negative values.
     pub fn read_cornell(path: &Path) -> Result<Self, BrdfError> {
         let text = std::fs::read_to_string(path).map_err(|e| BrdfError::io(path, e))?;
+        Self::parse_cornell(&text, path)
+    }
+
+    /// Parses the text of a Cornell BRDF file; `path` names it in errors.
+    ///
+    /// # Errors
+    /// As [`ScatteredBrdf::read_cornell`], but for the file's own reading.
+    pub fn parse_cornell(text: &str, path: &Path) -> Result<Self, BrdfError> {
         let bad = |r: String| BrdfError::malformed(path, "Cornell BRDF", r);
         let mut lines = text
             .lines()

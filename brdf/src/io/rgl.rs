@@ -241,7 +241,14 @@ impl Marginal2D {
         let row = py * self.nx + slice * n;
         let r0 = self.lookup(&self.conditional_cdf, row + self.nx - 1, n, &w, d);
         let r1 = self.lookup(&self.conditional_cdf, row + 2 * self.nx - 1, n, &w, d);
-        x /= (1.0 - y) * r0 + y * r1;
+        let row_mass = (1.0 - y) * r0 + y * r1;
+        // A row without mass (every RGL file in the test data has 64) has
+        // no warp: any position in it is as good, so keep the given one.
+        x = if row_mass > 0.0 {
+            x / row_mass
+        } else {
+            pos[0].clamp(0.0, 1.0)
+        };
         y *= r0 + 0.5 * y * (r1 - r0);
         y += self.lookup(&self.marginal_cdf, py + slice * self.ny, self.ny, &w, d);
         [x, y]
@@ -383,6 +390,11 @@ impl RglBrdf {
             if let Some(v) = fl.data.iter().find(|v| !v.is_finite()) {
                 return Err(bad(format!("`{n}` holds a non-finite value ({v})")));
             }
+        }
+        if jacobian.data[0] != 0.0 && sigma.data.iter().any(|v| *v <= 0.0) {
+            return Err(bad(
+                "`sigma` holds a value at or below zero (it divides the NDF)".into(),
+            ));
         }
         // The VNDF is a density per (phi_i, theta_i) slice: its warp needs
         // non-negative values with a positive integral.
