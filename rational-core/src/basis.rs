@@ -580,7 +580,9 @@ impl Basis {
     pub fn combine_with_partial(&self, x: &[f64], k: usize, a: &[f64], b: &[f64]) -> [f64; 4] {
         let total: usize = self.max_degree.iter().map(|m| m + 1).sum();
         if self.dim() > STACK_DIMS || total > PARTIAL_TABLE {
-            self.combine_with_partial_heap(x, k, a, b)
+            let (mut flat, mut deriv) = (vec![0.0; total], vec![0.0; total]);
+            self.fill_tables(x, k, &mut flat, &mut deriv);
+            self.accumulate_flat(k, a, b, &flat, &deriv)
         } else if total <= SMALL_PARTIAL_TABLE {
             // Clearing the tables costs as much as the sums for small bases.
             self.combine_with_partial_stack::<SMALL_PARTIAL_TABLE>(x, k, a, b)
@@ -598,10 +600,16 @@ impl Basis {
         a: &[f64],
         b: &[f64],
     ) -> [f64; 4] {
-        // Univariate values of every coordinate one after the other, and
-        // the derivatives of coordinate k at the same places.
         let mut flat = [0.0; N];
         let mut deriv = [0.0; N];
+        self.fill_tables(x, k, &mut flat, &mut deriv);
+        self.accumulate_flat(k, a, b, &flat, &deriv)
+    }
+
+    /// The univariate values of every coordinate at `x`, one coordinate
+    /// after the other (where `positions` points), and the derivatives of
+    /// coordinate `k` at the same places.
+    fn fill_tables(&self, x: &[f64], k: usize, flat: &mut [f64], deriv: &mut [f64]) {
         let mut start = 0;
         for l in 0..self.dim() {
             let len = self.max_degree[l] + 1;
@@ -610,29 +618,11 @@ impl Basis {
             self.family.values(t, &mut flat[start..start + len], dv);
             start += len;
         }
-        match self.dim() {
-            2 => self.accumulate_flat::<2>(k, a, b, &flat, &deriv),
-            3 => self.accumulate_flat::<3>(k, a, b, &flat, &deriv),
-            _ => {
-                let mut offsets = [0usize; STACK_DIMS];
-                for l in 1..self.dim() {
-                    offsets[l] = offsets[l - 1] + self.max_degree[l - 1] + 1;
-                }
-                self.accumulate_partial(
-                    k,
-                    a,
-                    b,
-                    |l, e| flat[offsets[l] + e],
-                    |e| deriv[offsets[k] + e],
-                )
-            }
-        }
     }
 
-    /// The sums of [`Basis::accumulate_partial`] in `D` coordinates from the
-    /// flat tables, unrolled over the coordinates (the inverse CDFs' two
-    /// and three).
-    fn accumulate_flat<const D: usize>(
+    /// The sums of [`Basis::combine_with_partial`] from the flat tables,
+    /// unrolled over the coordinates for the inverse CDFs' two and three.
+    fn accumulate_flat(
         &self,
         k: usize,
         a: &[f64],
@@ -640,10 +630,28 @@ impl Basis {
         flat: &[f64],
         deriv: &[f64],
     ) -> [f64; 4] {
+        match self.dim() {
+            2 => self.sums::<2>(k, a, b, flat, deriv),
+            3 => self.sums::<3>(k, a, b, flat, deriv),
+            _ => self.sums::<0>(k, a, b, flat, deriv),
+        }
+    }
+
+    /// [`Basis::accumulate_flat`] in `D` coordinates (`D = 0`: the basis's
+    /// own count, not known at compile time).
+    fn sums<const D: usize>(
+        &self,
+        k: usize,
+        a: &[f64],
+        b: &[f64],
+        flat: &[f64],
+        deriv: &[f64],
+    ) -> [f64; 4] {
+        let d = if D == 0 { self.dim() } else { D };
         let scale = self.domain.scale(k);
         let n = a.len().max(b.len()).min(self.len());
         let mut out = [0.0; 4];
-        for (j, p) in self.positions[..n * D].chunks_exact(D).enumerate() {
+        for (j, p) in self.positions[..n * d].chunks_exact(d).enumerate() {
             let (ca, cb) = (
                 a.get(j).copied().unwrap_or(0.0),
                 b.get(j).copied().unwrap_or(0.0),
@@ -660,54 +668,6 @@ impl Basis {
             let e = p[k] as usize;
             let v = others * flat[e];
             let g = others * deriv[e] * scale;
-            out[0] += ca * v;
-            out[1] += cb * v;
-            out[2] += ca * g;
-            out[3] += cb * g;
-        }
-        out
-    }
-
-    /// [`Basis::combine_with_partial`] with heap tables (many coordinates or
-    /// high degrees).
-    fn combine_with_partial_heap(&self, x: &[f64], k: usize, a: &[f64], b: &[f64]) -> [f64; 4] {
-        let d = self.dim();
-        let t: Vec<f64> = (0..d).map(|i| self.domain.map(i, x[i])).collect();
-        let (tab, dtab) = self.tables(&t, true);
-        self.accumulate_partial(k, a, b, |l, e| tab[l][e], |e| dtab[k][e])
-    }
-
-    /// The sums of [`Basis::combine_with_partial`] from univariate tables:
-    /// `value(l, e)` is `phi_e` of coordinate `l`, `deriv(e)` its derivative
-    /// in coordinate `k` (on `[-1, 1]`).
-    fn accumulate_partial(
-        &self,
-        k: usize,
-        a: &[f64],
-        b: &[f64],
-        value: impl Fn(usize, usize) -> f64,
-        deriv: impl Fn(usize) -> f64,
-    ) -> [f64; 4] {
-        let d = self.dim();
-        let scale = self.domain.scale(k);
-        let mut out = [0.0; 4];
-        for (j, idx) in self.indices.iter().enumerate() {
-            let (ca, cb) = (
-                a.get(j).copied().unwrap_or(0.0),
-                b.get(j).copied().unwrap_or(0.0),
-            );
-            if ca == 0.0 && cb == 0.0 {
-                continue;
-            }
-            let mut others = 1.0;
-            for l in 0..d {
-                if l != k {
-                    others *= value(l, idx[l] as usize);
-                }
-            }
-            let e = idx[k] as usize;
-            let v = others * value(k, e);
-            let g = others * deriv(e) * scale;
             out[0] += ca * v;
             out[1] += cb * v;
             out[2] += ca * g;
@@ -883,14 +843,24 @@ mod tests {
     }
 
     #[test]
-    fn value_and_partial_agree_on_the_stack_and_the_heap() {
+    fn value_and_partial_agree_with_every_function_s_gradient() {
         for family in [
             BasisFamily::Monomial,
             BasisFamily::Chebyshev,
             BasisFamily::Legendre,
         ] {
-            // 40 functions fit the small tables, 200 the large ones.
-            for (dim, len) in [(2usize, 40), (3, 40), (2, 200), (3, 200)] {
+            // 40 functions fit the small tables, 200 the large ones; 150 in
+            // one coordinate and 5 coordinates take the heap; 1 and 4
+            // coordinates the sums not unrolled.
+            for (dim, len) in [
+                (2usize, 40),
+                (3, 40),
+                (2, 200),
+                (3, 200),
+                (1, 150),
+                (4, 60),
+                (5, 60),
+            ] {
                 let domain = Domain {
                     lower: vec![0.0; dim],
                     upper: vec![2.0; dim],
@@ -901,9 +871,19 @@ mod tests {
                     .collect();
                 let c: Vec<f64> = (0..b.len()).map(|j| 1.0 / (1.0 + j as f64)).collect();
                 let x: Vec<f64> = (0..dim).map(|k| 0.3 + 0.4 * k as f64).collect();
+                // The reference: every function's value and gradient.
+                let mut values = vec![0.0; b.len()];
+                let mut grad = vec![vec![0.0; b.len()]; dim];
+                b.eval_with_gradient(&x, &mut values, &mut grad);
+                let dot = |u: &[f64], v: &[f64]| u.iter().zip(v).map(|(p, q)| p * q).sum::<f64>();
                 for k in 0..dim {
                     let fast = b.combine_with_partial(&x, k, &a, &c);
-                    let slow = b.combine_with_partial_heap(&x, k, &a, &c);
+                    let slow = [
+                        dot(&values, &a),
+                        dot(&values, &c),
+                        dot(&grad[k], &a),
+                        dot(&grad[k], &c),
+                    ];
                     for (u, v) in fast.iter().zip(&slow) {
                         assert!(
                             (u - v).abs() <= 1e-12 * (1.0 + v.abs()),

@@ -180,6 +180,19 @@ pub fn half_diff_f32(wi: [f32; 3], wo: [f32; 3]) -> (f32, f32, f32) {
     (theta_h, theta_d, phi_d)
 }
 
+/// The f32 form as a material: directions rounded to f32, values widened
+/// back, so every consumer of [`crate::Brdf`] (renderers, samplers, the
+/// checks of files read back) evaluates exactly what a shader would.
+impl crate::Brdf for CompactBrdf {
+    fn eval(&self, wi: Vec3, wo: Vec3) -> [f64; 3] {
+        CompactBrdf::eval(self, wi.map(|v| v as f32), wo.map(|v| v as f32)).map(f64::from)
+    }
+
+    fn name(&self) -> String {
+        "rational fit (f32 form)".into()
+    }
+}
+
 /// A basis's multi-indices in order and its largest degree per coordinate:
 /// what an evaluator of its functions needs besides the domain.
 pub(crate) fn basis_layout(b: &rational_core::Basis) -> (Vec<Vec<u16>>, Vec<usize>) {
