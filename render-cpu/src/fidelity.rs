@@ -11,11 +11,11 @@
 //! measures the noise floor of the comparison.
 
 use crate::compare::compare;
+use crate::description::SceneDescription;
 use crate::image::Image;
 use crate::integrator::render;
 use crate::prepare::{prepare, RenderOptions};
-use crate::scene::SceneDescription;
-use crate::world::Scene;
+use crate::scene::Scene;
 use crate::RenderError;
 use brdf::Brdf;
 use serde::Serialize;
@@ -494,7 +494,7 @@ fn search_tolerances(
                 })
             }
         };
-        let errors = validator.measure(Arc::new(crate::world::FitInDomain::new(fitted.clone())))?;
+        let errors = validator.measure(Arc::new(crate::scene::FitInDomain::new(fitted.clone())))?;
         let worst = errors.worst_mean();
         search.tried.push(TargetAttempt {
             dims,

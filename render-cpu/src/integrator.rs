@@ -10,9 +10,11 @@
 //!
 //! With MIS off the environment is reached only by BRDF sampling, so the
 //! rational sampler's estimator uses its pdf-free weight alone; with MIS on
-//! every light sample needs the sampler's pdf (for the rational sampler it
-//! is found by inverting the fitted map).
+//! every light sample is weighed by the sampler's `mis_pdf` (for the
+//! rational sampler a lookup in a grid built from the fitted map), and so
+//! is every BRDF sample, so the weights sum to one.
 
+use crate::description::{IntegratorKind, SamplePattern};
 use crate::geometry::{Hit, Ray};
 use crate::image::Image;
 use crate::light::Light;
@@ -20,8 +22,7 @@ use crate::math::{
     add, add_scaled, cross, dot, length, max_component, mul, normalize, scale, sub, Frame, Rng,
     Vec3,
 };
-use crate::scene::{IntegratorKind, SamplePattern};
-use crate::world::{PreparedMaterial, Scene};
+use crate::scene::{PreparedMaterial, Scene};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;

@@ -48,6 +48,7 @@
 mod camera;
 pub mod color;
 pub mod compare;
+pub mod description;
 mod error;
 pub mod fidelity;
 mod geometry;
@@ -57,12 +58,14 @@ mod light;
 pub mod math;
 mod mesh;
 mod prepare;
-pub mod scene;
-mod world;
+mod scene;
 
 pub use brdf::write_atomic;
 pub use camera::Camera;
 pub use compare::{compare, false_colour, Comparison};
+pub use description::{
+    IntegratorKind, MaterialDescription, SamplePattern, SamplerKind, SceneDescription,
+};
 pub use error::RenderError;
 pub use geometry::{Hit, Ray, Shape};
 pub use image::{encode_png, srgb_encode, write_png, Image};
@@ -75,8 +78,5 @@ pub use prepare::{
     PrepareLog, RenderOptions,
 };
 pub use scene::{
-    IntegratorKind, MaterialDescription, SamplePattern, SamplerKind, SceneDescription,
-};
-pub use world::{
     ClosedForm, FitInDomain, IntegratorSettings, Object, PreparedMaterial, Scene, F32_TOLERANCE,
 };

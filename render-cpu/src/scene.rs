@@ -1,531 +1,352 @@
-//! The scene file (TOML): camera, film, integrator, materials, objects,
-//! lights and environment. This module is the schema; [`crate::prepare`]
-//! turns a description into a renderable [`crate::Scene`].
-//!
-//! ```toml
-//! [camera]
-//! from = [0.0, 0.0, 4.0]
-//! to = [0.0, 0.0, 0.0]
-//! fov_deg = 30.0
-//! width = 256
-//! height = 256
-//!
-//! [integrator]
-//! kind = "direct"          # or "path"
-//! spp = 16
-//! sampler = "rational"     # BRDF sampling: cosine, tabulated or rational
-//! pattern = "lattice"      # scrambled Sobol' points (default: independent)
-//! jitter = true            # spread samples over the pixel (default)
-//!
-//! [materials.paint]
-//! kind = "measured"
-//! format = "rgl"
-//! path = "$RATFIT_DATA/rgl/cm_military_green_rgb.bsdf"
-//!
-//! [materials.paint_fit]
-//! kind = "fitted"
-//! source = "paint"
-//! rel_tol = 0.2
-//!
-//! [[objects]]
-//! shape = "sphere"
-//! center = [0.0, 0.0, 0.0]
-//! radius = 1.0
-//! material = "paint_fit"
-//!
-//! [environment]
-//! kind = "sky"
-//! zenith = [1.0, 1.0, 1.0]
-//! horizon = [0.6, 0.7, 0.8]
-//! ground = [0.1, 0.1, 0.1]
-//! ```
+//! A prepared scene: geometry, lights and materials ready to render.
 
-use crate::error::{io, RenderError};
-use serde::{Deserialize, Serialize};
-use std::collections::BTreeMap;
-use std::path::Path;
+use crate::camera::Camera;
+use crate::description::{IntegratorKind, SamplerKind};
+use crate::geometry::{Hit, Ray, Shape};
+use crate::light::{Environment, Light};
+use brdf::Brdf;
+use cdf::Sampler;
+use std::sync::Arc;
 
-fn default_up() -> [f64; 3] {
-    [0.0, 1.0, 0.0]
-}
-fn default_fov() -> f64 {
-    40.0
-}
-fn default_size() -> usize {
-    256
-}
-fn one() -> f64 {
-    1.0
-}
-fn default_spp() -> usize {
-    16
-}
-fn default_depth() -> usize {
-    5
-}
-fn default_triangles() -> usize {
-    1000
+/// A rational fit as the renderer evaluates it: the compact f32 form (as a
+/// GPU would; about twice the speed of the batched f64 path) when it agrees
+/// with the f64 path within [`F32_TOLERANCE`] on a dense grid of direction
+/// pairs, else the f64 path ([`brdf::BatchedFit`]). The two agree to the conditioning of the
+/// evaluation, and a fit whose denominator nearly cancels (at a sharp peak,
+/// or between samples) loses every digit in f32: an ilm_solo_m_68 fit read
+/// 1,512 in f32 against 1,809 in f64 at its highlight, and infinity beside
+/// it. Beyond an elevation cut of
+/// the fit's reduction, directions are moved to the cut, by the rule every
+/// evaluation path shares (`brdf::clamp_elevation`): outside its samples
+/// nothing constrains a fit, and fits were seen to reach 1e4 times their
+/// peak there. Fits of the whole hemisphere have no cut.
+#[derive(Debug, Clone)]
+pub struct FitInDomain {
+    batched: brdf::BatchedFit,
+    compact: brdf::CompactBrdf,
+    f32_error: f64,
 }
 
-/// The whole scene file.
-#[derive(Debug, Clone, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
-pub struct SceneDescription {
-    /// The camera.
-    pub camera: CameraDescription,
-    /// Film settings.
-    #[serde(default)]
-    pub film: FilmDescription,
-    /// How light is transported.
-    pub integrator: IntegratorDescription,
-    /// Materials by name; only those objects use are prepared.
-    #[serde(default)]
-    pub materials: BTreeMap<String, MaterialDescription>,
-    /// Geometry.
-    #[serde(default)]
-    pub objects: Vec<ObjectDescription>,
-    /// Lights other than the environment.
-    #[serde(default)]
-    pub lights: Vec<LightDescription>,
-    /// Light from infinitely far away.
-    pub environment: Option<EnvironmentDescription>,
-}
+/// Largest relative difference of the f32 path from the f64 one (over
+/// values above a thousandth of the fit's largest) with which the renderer
+/// evaluates a fit in f32; about a fortieth of a CIEDE2000 unit at mid grey
+/// (4% of luminance is about one unit).
+pub const F32_TOLERANCE: f64 = 1e-3;
 
-/// A pinhole camera.
-#[derive(Debug, Clone, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
-pub struct CameraDescription {
-    /// Eye position.
-    pub from: [f64; 3],
-    /// Point looked at.
-    pub to: [f64; 3],
-    /// Up direction (default +y).
-    #[serde(default = "default_up")]
-    pub up: [f64; 3],
-    /// Vertical field of view in degrees (default 40).
-    #[serde(default = "default_fov")]
-    pub fov_deg: f64,
-    /// Width in pixels (default 256).
-    #[serde(default = "default_size")]
-    pub width: usize,
-    /// Height in pixels (default 256).
-    #[serde(default = "default_size")]
-    pub height: usize,
-}
+impl FitInDomain {
+    /// Wraps a fit, and compares its f32 form with f64 on a grid of
+    /// `24 x 24 x 12` half-difference cells.
+    pub fn new(fit: brdf::FittedBrdf) -> Self {
+        let compact = brdf::CompactBrdf::from_fitted(&fit);
+        let f32_error = f32_error(&fit, &compact);
+        Self {
+            batched: brdf::BatchedFit::new(fit),
+            compact,
+            f32_error,
+        }
+    }
 
-/// Film settings.
-#[derive(Debug, Clone, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
-pub struct FilmDescription {
-    /// Multiplier applied before the sRGB curve in PNG output and before
-    /// Lab conversion in comparisons (default 1).
-    #[serde(default = "one")]
-    pub exposure: f64,
-}
+    /// Largest relative difference of the f32 form from the f64 fit on the
+    /// grid (over values above a thousandth of the largest; infinite where
+    /// the f32 form is not finite).
+    pub fn f32_error(&self) -> f64 {
+        self.f32_error
+    }
 
-impl Default for FilmDescription {
-    fn default() -> Self {
-        Self { exposure: 1.0 }
+    /// Whether the renderer evaluates the compact f32 form (it agrees with
+    /// the f64 fit within [`F32_TOLERANCE`]); else the f64 fit.
+    pub fn uses_f32(&self) -> bool {
+        self.f32_error <= F32_TOLERANCE
+    }
+
+    /// The fit.
+    pub fn fit(&self) -> &brdf::FittedBrdf {
+        self.batched.fit()
+    }
+
+    /// The f32 form used for evaluation.
+    pub fn compact(&self) -> &brdf::CompactBrdf {
+        &self.compact
+    }
+
+    /// The elevation cut in radians (`pi / 2` without one).
+    pub fn max_elevation(&self) -> f64 {
+        f64::from(self.compact.max_elevation)
     }
 }
 
-/// The light-transport algorithm.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize)]
-#[serde(rename_all = "kebab-case")]
-#[non_exhaustive]
-pub enum IntegratorKind {
-    /// Direct lighting: every directional and point light exactly (with
-    /// shadow rays), one sample per area light, and the environment and
-    /// emitters through BRDF sampling (plus light sampling with MIS).
-    Direct,
-    /// Path tracing: direct lighting at every bounce, continued by BRDF
-    /// sampling, Russian roulette after three bounces.
-    Path,
+/// See [`FitInDomain::f32_error`].
+fn f32_error(fit: &brdf::FittedBrdf, compact: &brdf::CompactBrdf) -> f64 {
+    use rayon::prelude::*;
+    let pairs = brdf::HalfDiff::cell_centres([24, 24, 12]);
+    let values: Vec<([f64; 3], [f32; 3])> = pairs
+        .par_iter()
+        .map(|&(wi, wo)| {
+            let f32_value = compact.eval(wi.map(|v| v as f32), wo.map(|v| v as f32));
+            (fit.eval(wi, wo), f32_value)
+        })
+        .collect();
+    let largest = values
+        .iter()
+        .flat_map(|(a, _)| a.iter())
+        .fold(0.0_f64, |m, &v| m.max(v));
+    let floor = 1e-3 * largest;
+    let mut worst = 0.0_f64;
+    for (a, b) in &values {
+        for c in 0..3 {
+            let b = f64::from(b[c]);
+            if !b.is_finite() || !a[c].is_finite() {
+                return f64::INFINITY;
+            }
+            if a[c].abs() > floor {
+                worst = worst.max((b - a[c]).abs() / a[c].abs());
+            }
+        }
+    }
+    worst
 }
 
-/// How the BRDF is importance-sampled.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize)]
-#[serde(rename_all = "kebab-case")]
-#[non_exhaustive]
-pub enum SamplerKind {
-    /// `cos(theta) / pi`, blind to the BRDF.
-    Cosine,
-    /// Tabulated inverse CDFs with a stored pdf.
-    Tabulated,
-    /// Fitted rational inverse CDFs, weight from the map's Jacobian.
-    Rational,
+impl Brdf for FitInDomain {
+    fn eval(&self, wi: brdf::Vec3, wo: brdf::Vec3) -> [f64; 3] {
+        if !self.uses_f32() {
+            return self.fit().eval(wi, wo);
+        }
+        self.compact
+            .eval(wi.map(|v| v as f32), wo.map(|v| v as f32))
+            .map(f64::from)
+    }
+
+    /// The batched path of the compact form, in blocks on the stack, or of
+    /// the f64 fit ([`brdf::BatchedFit`]).
+    fn eval_incident(&self, wi: &[brdf::Vec3], wo: brdf::Vec3, out: &mut [[f64; 3]]) {
+        assert_eq!(
+            wi.len(),
+            out.len(),
+            "eval_incident: one output per direction"
+        );
+        const BLOCK: usize = 64;
+        if !self.uses_f32() {
+            let wo = [wo; BLOCK];
+            for (w, o) in wi.chunks(BLOCK).zip(out.chunks_mut(BLOCK)) {
+                self.batched.eval_batch(w, &wo[..w.len()], o);
+            }
+            return;
+        }
+        let wo32 = [wo.map(|v| v as f32); BLOCK];
+        let (mut a, mut r) = ([[0.0f32; 3]; BLOCK], [[0.0f32; 3]; BLOCK]);
+        for (w, o) in wi.chunks(BLOCK).zip(out.chunks_mut(BLOCK)) {
+            let n = w.len();
+            for (dst, src) in a.iter_mut().zip(w) {
+                *dst = src.map(|v| v as f32);
+            }
+            self.compact.eval_batch(&a[..n], &wo32[..n], &mut r[..n]);
+            for (dst, src) in o.iter_mut().zip(&r) {
+                *dst = src.map(f64::from);
+            }
+        }
+    }
+
+    fn name(&self) -> String {
+        self.fit().name()
+    }
 }
 
-impl std::str::FromStr for SamplerKind {
-    type Err = RenderError;
-    fn from_str(s: &str) -> Result<Self, RenderError> {
-        match s {
-            "cosine" => Ok(Self::Cosine),
-            "tabulated" => Ok(Self::Tabulated),
-            "rational" => Ok(Self::Rational),
-            other => Err(crate::error::invalid(
-                "sampler",
-                format!("`{other}` (cosine, tabulated, rational)"),
-            )),
+/// A material as the renderer uses it: the BRDF and its sampler.
+#[derive(Clone)]
+pub struct PreparedMaterial {
+    /// Name in the scene.
+    pub name: String,
+    /// What it is (for logs).
+    pub description: String,
+    /// The reflectance.
+    pub brdf: Arc<dyn Brdf>,
+    /// Bytes of the reflectance representation.
+    pub brdf_bytes: usize,
+    /// The BRDF sampler (cosine when the scene asks for it or never samples).
+    pub sampler: Arc<dyn Sampler>,
+    /// Bytes the sampler stores.
+    pub sampler_bytes: usize,
+    /// The reflectance in a form other evaluators (shaders) can reproduce,
+    /// when it has one: Lambert and rational fits.
+    pub closed_form: Option<ClosedForm>,
+}
+
+/// A material's reflectance in closed form.
+#[derive(Debug, Clone)]
+#[non_exhaustive]
+pub enum ClosedForm {
+    /// `albedo / pi`.
+    Lambert {
+        /// RGB albedo.
+        albedo: [f64; 3],
+    },
+    /// A rational fit, evaluated inside its sampled elevations.
+    Fit(Arc<FitInDomain>),
+}
+
+impl PreparedMaterial {
+    /// The BRDF with negative values set to zero: measured tables can
+    /// interpolate to small negative values, which no surface reflects.
+    pub fn eval(&self, wi: brdf::Vec3, wo: brdf::Vec3) -> [f64; 3] {
+        self.brdf.eval(wi, wo).map(|v| v.max(0.0))
+    }
+
+    /// [`PreparedMaterial::eval`] at many incident directions and one
+    /// outgoing direction (the BRDF's batched path where it has one).
+    pub fn eval_incident(&self, wi: &[brdf::Vec3], wo: brdf::Vec3, out: &mut [[f64; 3]]) {
+        self.brdf.eval_incident(wi, wo, out);
+        for o in out.iter_mut() {
+            *o = o.map(|v| v.max(0.0));
         }
     }
 }
 
-impl SamplerKind {
-    /// Name as in scene files.
-    pub fn name(self) -> &'static str {
-        match self {
-            Self::Cosine => "cosine",
-            Self::Tabulated => "tabulated",
-            Self::Rational => "rational",
-        }
+impl std::fmt::Debug for PreparedMaterial {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("PreparedMaterial")
+            .field("name", &self.name)
+            .field("description", &self.description)
+            .field("brdf_bytes", &self.brdf_bytes)
+            .field("sampler", &self.sampler.name())
+            .field("sampler_bytes", &self.sampler_bytes)
+            .finish()
     }
 }
 
-/// Where the random numbers of a pixel's samples come from.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Deserialize, Serialize)]
-#[serde(rename_all = "snake_case")]
-#[non_exhaustive]
-pub enum SamplePattern {
-    /// Independent uniform numbers.
-    #[default]
-    Independent,
-    /// A randomised rank-1 lattice per pair of dimensions: unbiased, and
-    /// on smooth lighting far less noisy at the same samples per pixel.
-    Lattice,
+/// An object of the scene.
+#[derive(Debug, Clone)]
+pub struct Object {
+    /// Its shape.
+    pub shape: Shape,
+    /// Index into [`Scene::materials`]; `None` for emitters.
+    pub material: Option<usize>,
+    /// Radiance emitted on the front side (area lights).
+    pub emission: Option<[f64; 3]>,
 }
 
-/// Integrator settings.
-#[derive(Debug, Clone, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
-pub struct IntegratorDescription {
+/// Integrator settings after overrides.
+#[derive(Debug, Clone, Copy)]
+pub struct IntegratorSettings {
     /// Direct lighting or path tracing.
     pub kind: IntegratorKind,
-    /// Samples per pixel (default 16); with one, rays go through pixel
-    /// centres.
-    #[serde(default = "default_spp")]
+    /// Samples per pixel.
     pub spp: usize,
-    /// Seed of the per-pixel random streams (default 0).
-    #[serde(default)]
+    /// Seed.
     pub seed: u64,
-    /// BRDF sampling strategy (default cosine).
-    #[serde(default = "default_sampler")]
+    /// BRDF sampling strategy.
     pub sampler: SamplerKind,
-    /// Also sample the environment and weigh both strategies by the balance
-    /// heuristic (default false: BRDF sampling alone, as in the paper).
-    #[serde(default)]
+    /// Combine BRDF and light sampling with the balance heuristic.
     pub mis: bool,
-    /// Where each pixel's samples come from (default independent).
-    #[serde(default)]
-    pub pattern: SamplePattern,
-    /// Spread a pixel's samples over its area (default true); false puts
-    /// every sample through the pixel's centre, a point-sampled image whose
-    /// only noise is that of the lighting integral.
-    #[serde(default = "yes")]
+    /// Where each pixel's samples come from.
+    pub pattern: crate::description::SamplePattern,
+    /// Spread a pixel's samples over its area.
     pub jitter: bool,
-    /// Largest number of bounces of the path tracer (default 5).
-    #[serde(default = "default_depth")]
+    /// Bounces of the path tracer.
     pub max_depth: usize,
-    /// Shadow rays towards directional and point lights (default true;
-    /// a lone convex object cannot shadow itself, so they can be skipped).
-    #[serde(default = "yes")]
+    /// Shadow rays towards directional and point lights.
     pub shadows: bool,
 }
 
-fn yes() -> bool {
-    true
+/// A scene ready to render.
+#[derive(Debug, Clone)]
+pub struct Scene {
+    /// The camera.
+    pub camera: Camera,
+    /// PNG and comparison exposure.
+    pub exposure: f64,
+    /// Objects.
+    pub objects: Vec<Object>,
+    /// Lights (area lights also appear in `objects`).
+    pub lights: Vec<Light>,
+    /// Light from far away.
+    pub environment: Option<Environment>,
+    /// Materials objects use.
+    pub materials: Vec<PreparedMaterial>,
+    /// How to render.
+    pub integrator: IntegratorSettings,
 }
 
-fn default_sampler() -> SamplerKind {
-    SamplerKind::Cosine
-}
-
-/// A material.
-#[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
-#[serde(tag = "kind", rename_all = "kebab-case", deny_unknown_fields)]
-#[non_exhaustive]
-pub enum MaterialDescription {
-    /// Lambertian.
-    Lambert {
-        /// Albedo per channel.
-        albedo: [f64; 3],
-    },
-    /// Normalised Blinn-Phong.
-    BlinnPhong {
-        /// Diffuse albedo.
-        kd: [f64; 3],
-        /// Specular scale.
-        ks: [f64; 3],
-        /// Exponent.
-        exponent: f64,
-    },
-    /// Cook-Torrance with GGX and Schlick's Fresnel.
-    Ggx {
-        /// Diffuse albedo.
-        kd: [f64; 3],
-        /// Reflectance at normal incidence.
-        f0: [f64; 3],
-        /// GGX roughness.
-        alpha: f64,
-    },
-    /// Ashikhmin-Shirley, isotropic.
-    AshikhminShirley {
-        /// Diffuse reflectance.
-        rd: [f64; 3],
-        /// Specular reflectance at normal incidence.
-        rs: [f64; 3],
-        /// Exponent.
-        exponent: f64,
-    },
-    /// A measured table.
-    Measured {
-        /// `merl` or `rgl`.
-        format: String,
-        /// File path, relative to the scene file; `$RATFIT_DATA/` expands
-        /// to the data directory.
-        path: String,
-    },
-    /// A fit written by `ratfit fit`.
-    Fit {
-        /// File path, relative to the scene file.
-        path: String,
-    },
-    /// A rational fit of another material of the scene, computed only when
-    /// no cached fit exists.
-    Fitted {
-        /// The material fitted (by name).
-        source: String,
-        /// Relative interval half-width (default 0.05).
-        #[serde(default = "default_rel_tol")]
-        rel_tol: f64,
-        /// 2 or 3 (default 2).
-        #[serde(default = "default_dims")]
-        dims: usize,
-        /// Largest coefficient budget per channel (default 60).
-        #[serde(default = "default_max_coeffs")]
-        max_coeffs: usize,
-        /// Instead of `rel_tol`: the smallest 3-D perceptual fit
-        /// (luminance-chroma, 16^3 grid) whose validation renders reach
-        /// this mean CIEDE2000 (see `render_cpu::fidelity::fit_to_target`;
-        /// `dims` is then 3).
-        #[serde(default, skip_serializing_if = "Option::is_none")]
-        target_de: Option<f64>,
-        /// Fit the ratio of the source to a Cook-Torrance GGX lobe fitted
-        /// first (lobe times rational; see `brdf::Lobe`). Default false.
-        #[serde(default, skip_serializing_if = "std::ops::Not::not")]
-        lobe: bool,
-    },
-}
-
-fn default_rel_tol() -> f64 {
-    0.05
-}
-fn default_dims() -> usize {
-    2
-}
-fn default_max_coeffs() -> usize {
-    60
-}
-
-/// An object: a shape and the material it uses.
-#[derive(Debug, Clone, Deserialize, Serialize)]
-#[serde(tag = "shape", rename_all = "kebab-case", deny_unknown_fields)]
-#[non_exhaustive]
-pub enum ObjectDescription {
-    /// An analytic sphere.
-    Sphere {
-        /// Centre.
-        center: [f64; 3],
-        /// Radius.
-        radius: f64,
-        /// Material name.
-        material: String,
-    },
-    /// An infinite plane.
-    Plane {
-        /// A point on it.
-        point: [f64; 3],
-        /// Its normal.
-        normal: [f64; 3],
-        /// Material name.
-        material: String,
-    },
-    /// A parallelogram `corner + a u + b v`.
-    Quad {
-        /// One corner.
-        corner: [f64; 3],
-        /// First edge.
-        u: [f64; 3],
-        /// Second edge.
-        v: [f64; 3],
-        /// Material name.
-        material: String,
-    },
-    /// A Wavefront OBJ mesh, scaled then translated.
-    Mesh {
-        /// File path, relative to the scene file.
-        path: String,
-        /// Uniform scale (default 1).
-        #[serde(default = "one")]
-        scale: f64,
-        /// Translation (default none).
-        #[serde(default)]
-        translate: [f64; 3],
-        /// Material name.
-        material: String,
-    },
-    /// A triangulated UV sphere of about `triangles` triangles.
-    MeshSphere {
-        /// Centre.
-        center: [f64; 3],
-        /// Radius.
-        radius: f64,
-        /// About this many triangles (default 1000).
-        #[serde(default = "default_triangles")]
-        triangles: usize,
-        /// Material name.
-        material: String,
-    },
-    /// A torus around the y axis.
-    Torus {
-        /// Centre.
-        center: [f64; 3],
-        /// Radius of the ring.
-        major: f64,
-        /// Radius of the tube.
-        minor: f64,
-        /// About this many triangles (default 1000).
-        #[serde(default = "default_triangles")]
-        triangles: usize,
-        /// Material name.
-        material: String,
-    },
-}
-
-impl ObjectDescription {
-    /// The material's name.
-    pub fn material(&self) -> &str {
-        match self {
-            Self::Sphere { material, .. }
-            | Self::Plane { material, .. }
-            | Self::Quad { material, .. }
-            | Self::Mesh { material, .. }
-            | Self::MeshSphere { material, .. }
-            | Self::Torus { material, .. } => material,
+impl Scene {
+    /// The nearest hit and the object hit.
+    pub fn intersect(&self, ray: &Ray) -> Option<(Hit, usize)> {
+        let mut r = *ray;
+        let mut best = None;
+        for (i, o) in self.objects.iter().enumerate() {
+            if let Some(h) = o.shape.intersect(&r) {
+                r.t_max = h.t;
+                best = Some((h, i));
+            }
         }
+        best
     }
 
-    /// Uses another material.
-    pub fn set_material(&mut self, name: &str) {
-        match self {
-            Self::Sphere { material, .. }
-            | Self::Plane { material, .. }
-            | Self::Quad { material, .. }
-            | Self::Mesh { material, .. }
-            | Self::MeshSphere { material, .. }
-            | Self::Torus { material, .. } => *material = name.to_string(),
+    /// Whether nothing blocks `ray` up to its `t_max`.
+    pub fn unoccluded(&self, ray: &Ray) -> bool {
+        self.objects
+            .iter()
+            .all(|o| o.shape.intersect(ray).is_none())
+    }
+
+    /// Bytes of all material representations: reflectance and samplers.
+    pub fn material_bytes(&self) -> (usize, usize) {
+        self.materials
+            .iter()
+            .fold((0, 0), |(a, b), m| (a + m.brdf_bytes, b + m.sampler_bytes))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use brdf::{fit_brdf, from_spherical, BlinnPhong, BrdfFitSettings, Reduction};
+
+    #[test]
+    fn fits_are_evaluated_at_the_cut_beyond_their_sampled_elevations() {
+        let material = BlinnPhong {
+            kd: [0.2; 3],
+            ks: [0.4; 3],
+            exponent: 20.0,
+        };
+        let settings = BrdfFitSettings::default()
+            .with_reduction(Reduction::default().with_resolution(24, 24))
+            .with_baselines(false);
+        let (fit, _) = fit_brdf(&material, &settings).unwrap();
+        let limit = fit.reduction.max_elevation_deg.to_radians();
+        let wrapped = FitInDomain::new(fit.clone());
+        let bits = |v: [f64; 3]| v.map(f64::to_bits);
+        let f32_dir = |d: brdf::Vec3| d.map(|v| v as f32);
+        let compact = |wi: brdf::Vec3, wo: brdf::Vec3| {
+            wrapped
+                .compact()
+                .eval(f32_dir(wi), f32_dir(wo))
+                .map(f64::from)
+        };
+        // Inside the sampled elevations: the fit itself (f32 form, close to f64).
+        let (wi, wo) = (from_spherical(0.4, 0.1), from_spherical(0.9, 2.5));
+        assert_eq!(bits(wrapped.eval(wi, wo)), bits(compact(wi, wo)));
+        let exact = fit.eval(wi, wo);
+        for c in 0..3 {
+            assert!(
+                (wrapped.eval(wi, wo)[c] - exact[c]).abs() < 1e-4 * exact[c],
+                "{c}"
+            );
         }
-    }
-}
-
-/// A light.
-#[derive(Debug, Clone, Deserialize, Serialize)]
-#[serde(tag = "kind", rename_all = "kebab-case", deny_unknown_fields)]
-#[non_exhaustive]
-pub enum LightDescription {
-    /// Parallel light.
-    Directional {
-        /// Towards the light.
-        direction: [f64; 3],
-        /// RGB irradiance on a surface facing it.
-        irradiance: [f64; 3],
-    },
-    /// `count` directional lights spread evenly (a Fibonacci spiral) over
-    /// the cone of `max_angle_deg` around `axis`, sharing `irradiance`.
-    DirectionalSet {
-        /// Number of lights.
-        count: usize,
-        /// Total RGB irradiance, split equally.
-        irradiance: [f64; 3],
-        /// Cone axis (default +y).
-        #[serde(default = "default_up")]
-        axis: [f64; 3],
-        /// Cone half-angle in degrees (default 80).
-        #[serde(default = "default_cone")]
-        max_angle_deg: f64,
-    },
-    /// Isotropic point light.
-    Point {
-        /// Position.
-        position: [f64; 3],
-        /// RGB intensity.
-        intensity: [f64; 3],
-    },
-    /// A one-sided emitting parallelogram (emits towards `u x v`).
-    Area {
-        /// One corner.
-        corner: [f64; 3],
-        /// First edge.
-        u: [f64; 3],
-        /// Second edge.
-        v: [f64; 3],
-        /// RGB radiance.
-        radiance: [f64; 3],
-    },
-}
-
-fn default_cone() -> f64 {
-    80.0
-}
-
-/// The environment.
-#[derive(Debug, Clone, Deserialize, Serialize)]
-#[serde(tag = "kind", rename_all = "kebab-case", deny_unknown_fields)]
-#[non_exhaustive]
-pub enum EnvironmentDescription {
-    /// Constant radiance (the white furnace).
-    Uniform {
-        /// RGB radiance.
-        radiance: [f64; 3],
-    },
-    /// A procedural sky over +y.
-    Sky {
-        /// Radiance straight up.
-        zenith: [f64; 3],
-        /// Radiance at the horizon.
-        horizon: [f64; 3],
-        /// Radiance from below the horizon.
-        ground: [f64; 3],
-    },
-    /// A latitude-longitude OpenEXR image.
-    Image {
-        /// File path, relative to the scene file.
-        path: String,
-        /// Radiance multiplier (default 1).
-        #[serde(default = "one")]
-        scale: f64,
-    },
-}
-
-impl SceneDescription {
-    /// Parses scene TOML; `origin` names it in errors.
-    ///
-    /// # Errors
-    /// Invalid TOML, unknown keys, or missing required fields (the error
-    /// gives the line and column).
-    pub fn parse(text: &str, origin: &str) -> Result<Self, RenderError> {
-        toml::from_str(text).map_err(|e| RenderError::Scene {
-            path: origin.to_string(),
-            reason: e.to_string(),
-        })
-    }
-
-    /// Reads a scene file.
-    ///
-    /// # Errors
-    /// As [`SceneDescription::parse`], or the file cannot be read.
-    pub fn read(path: &Path) -> Result<Self, RenderError> {
-        let text = std::fs::read_to_string(path).map_err(|e| io(path, e))?;
-        Self::parse(&text, &path.display().to_string())
+        // Beyond: the value at the cut, same azimuths, on the f32 and the
+        // f64 paths alike.
+        let (wi, wo) = (from_spherical(1.45, 0.1), from_spherical(0.9, 2.5));
+        let at_cut = fit.eval(from_spherical(limit, 0.1), wo);
+        let beyond = fit.eval(wi, wo);
+        for c in 0..3 {
+            assert!((beyond[c] - at_cut[c]).abs() < 1e-12 * at_cut[c], "{c}");
+        }
+        assert_eq!(bits(wrapped.eval(wi, wo)), bits(compact(wi, wo)));
+        for c in 0..3 {
+            assert!(
+                (wrapped.eval(wi, wo)[c] - at_cut[c]).abs() < 1e-4 * at_cut[c],
+                "{c}: {:?} against {at_cut:?}",
+                wrapped.eval(wi, wo)
+            );
+        }
+        assert_eq!(bits(wrapped.eval([0.0, 0.6, -0.8], wo)), bits([0.0; 3]));
     }
 }

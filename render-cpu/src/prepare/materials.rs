@@ -3,9 +3,9 @@
 use super::cache::{content_hash, Cache, CACHE_VERSION};
 use super::checks::{check_positive, check_rgb, resolve_path, scene_error};
 use super::{Action, PrepareLog};
+use crate::description::{MaterialDescription, SamplerKind};
 use crate::error::{io, RenderError};
-use crate::scene::{MaterialDescription, SamplerKind};
-use crate::world::{ClosedForm, FitInDomain};
+use crate::scene::{ClosedForm, FitInDomain};
 use brdf::{
     AshikhminShirley, BlinnPhong, Brdf, BrdfFitSettings, CookTorranceGgx, FittedBrdf, Lambert,
     MerlBrdf, Reduction, ReductionKind, RglBrdf,
@@ -31,7 +31,19 @@ pub(super) struct MaterialBuilder<'a> {
 }
 
 /// The BRDF, its bytes, a description, its cache key and its closed form.
-pub(super) type Built = (Arc<dyn Brdf>, usize, String, u64, Option<ClosedForm>);
+/// A material as preparation builds it, before its sampler.
+pub(super) struct Built {
+    /// What the renderer evaluates.
+    pub(super) brdf: Arc<dyn Brdf>,
+    /// Bytes of its representation (0 for analytic models).
+    pub(super) bytes: usize,
+    /// What it is, for the preparation log.
+    pub(super) description: String,
+    /// Its content key (the cache's key for its sampler too).
+    pub(super) key: u64,
+    /// Its closed form where the renderer has one (Lambert, fits).
+    pub(super) closed_form: Option<ClosedForm>,
+}
 
 impl MaterialBuilder<'_> {
     fn material_error(&self, name: &str, e: brdf::BrdfError) -> RenderError {
@@ -118,7 +130,11 @@ impl MaterialBuilder<'_> {
                 f
             }
             None => {
-                let (src, _, src_desc, _, _) = self.build(&source, log)?;
+                let Built {
+                    brdf: src,
+                    description: src_desc,
+                    ..
+                } = self.build(&source, log)?;
                 let dims = if target_de.is_some() { 3 } else { dims };
                 let settings = fit_settings(rel_tol, dims, max_coeffs)
                     .map_err(|e| self.material_error(name, e))?
@@ -163,7 +179,13 @@ impl MaterialBuilder<'_> {
         );
         let fit = Arc::new(FitInDomain::new(fitted));
         let d = d + &precision_note(&fit);
-        Ok((fit.clone(), bytes, d, key, Some(ClosedForm::Fit(fit))))
+        Ok(Built {
+            brdf: fit.clone(),
+            bytes,
+            description: d,
+            key,
+            closed_form: Some(ClosedForm::Fit(fit)),
+        })
     }
 
     pub(super) fn build(&mut self, name: &str, log: &mut PrepareLog) -> Result<Built, RenderError> {
@@ -180,14 +202,20 @@ impl MaterialBuilder<'_> {
         let rgb =
             |v: [f64; 3], w: &str| check_rgb(self.origin, &format!("materials.{name}.{w}"), v);
         let analytic = |b: Arc<dyn Brdf>| -> Built {
-            let d = b.name();
-            (b, 0, d, key, None)
+            let description = b.name();
+            Built {
+                brdf: b,
+                bytes: 0,
+                description,
+                key,
+                closed_form: None,
+            }
         };
         let built: Built = match desc {
             MaterialDescription::Lambert { albedo } => {
                 let albedo = rgb(albedo, "albedo")?;
                 let mut built = analytic(Arc::new(Lambert { albedo }));
-                built.4 = Some(ClosedForm::Lambert { albedo });
+                built.closed_form = Some(ClosedForm::Lambert { albedo });
                 built
             }
             MaterialDescription::BlinnPhong { kd, ks, exponent } => {
@@ -234,7 +262,13 @@ impl MaterialBuilder<'_> {
                     format!("loaded {d}, {bytes} bytes"),
                     start.elapsed().as_secs_f64(),
                 );
-                (b, bytes, d, key, None)
+                Built {
+                    brdf: b,
+                    bytes,
+                    description: d,
+                    key,
+                    closed_form: None,
+                }
             }
             MaterialDescription::Fit { path } => {
                 let p = resolve_path(self.base, &path)?;
@@ -260,7 +294,13 @@ impl MaterialBuilder<'_> {
                 );
                 let fit = Arc::new(FitInDomain::new(fitted));
                 let d = d + &precision_note(&fit);
-                (fit.clone(), bytes, d, key, Some(ClosedForm::Fit(fit)))
+                Built {
+                    brdf: fit.clone(),
+                    bytes,
+                    description: d,
+                    key,
+                    closed_form: Some(ClosedForm::Fit(fit)),
+                }
             }
             MaterialDescription::Fitted { .. } => self.build_fitted(name, &desc, key, log)?,
         };
@@ -268,7 +308,7 @@ impl MaterialBuilder<'_> {
             log.push(
                 Action::Prepared,
                 &what,
-                format!("analytic {}", built.2),
+                format!("analytic {}", built.description),
                 start.elapsed().as_secs_f64(),
             );
         }
@@ -441,7 +481,7 @@ fn precision_note(fit: &FitInDomain) -> String {
         format!(
             "; evaluated in f64: its f32 form differs by {:.1e} (relative), beyond {:.0e}, and a GPU render of it is not exact",
             fit.f32_error(),
-            crate::world::F32_TOLERANCE
+            crate::scene::F32_TOLERANCE
         )
     }
 }

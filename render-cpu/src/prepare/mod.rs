@@ -15,12 +15,12 @@ pub use checks::resolve_path;
 pub use shapes::spiral_directions;
 
 use crate::camera::Camera;
-use crate::error::RenderError;
-use crate::math::{dot, normalize};
-use crate::scene::{
+use crate::description::{
     IntegratorKind, LightDescription, MaterialDescription, SamplerKind, SceneDescription,
 };
-use crate::world::{IntegratorSettings, Object, PreparedMaterial, Scene};
+use crate::error::RenderError;
+use crate::math::{dot, normalize};
+use crate::scene::{IntegratorSettings, Object, PreparedMaterial, Scene};
 use cache::Cache;
 use checks::{check_positive, check_vec, scene_error};
 use materials::{build_sampler, MaterialBuilder};
@@ -164,7 +164,13 @@ pub fn prepare(
     };
     let mut materials = Vec::new();
     for name in &used {
-        let (brdf, brdf_bytes, description, key, closed_form) = builder.build(name, &mut log)?;
+        let materials::Built {
+            brdf,
+            bytes: brdf_bytes,
+            description,
+            key,
+            closed_form,
+        } = builder.build(name, &mut log)?;
         let (sampler, sampler_bytes) = build_sampler(
             name,
             &brdf,
@@ -213,7 +219,7 @@ pub fn prepare(
         log.push(
             Action::Prepared,
             "MIS weights for the rational sampler",
-            "its pdf is found by inverting the fitted map at each light sample (the pdf-free estimator needs mis = false)",
+            "at each light sample its density is looked up in a grid built once by inverting the fitted map (the weights stay unbiased; each BRDF sample's own weight keeps the map's exact Jacobian)",
             0.0,
         );
     }

@@ -2,14 +2,14 @@
 
 use super::checks::{check_positive, check_rgb, check_vec, resolve_path, scene_error};
 use super::{Action, PrepareLog};
+use crate::description::{EnvironmentDescription, LightDescription, ObjectDescription};
 use crate::error::RenderError;
 use crate::geometry::Shape;
 use crate::image::Image;
 use crate::light::{Environment, EnvironmentMap, Light};
 use crate::math::{normalize, Frame, Vec3};
 use crate::mesh::TriangleMesh;
-use crate::scene::{EnvironmentDescription, LightDescription, ObjectDescription};
-use crate::world::Object;
+use crate::scene::Object;
 use std::path::Path;
 use std::time::Instant;
 
