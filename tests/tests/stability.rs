@@ -152,11 +152,13 @@ fn values_spanning_1e_minus_8_to_1e4() {
 }
 
 #[test]
-fn scaling_by_1e_minus_12_and_1e12_changes_nothing_but_scale() {
+fn scaling_from_1e_minus_300_to_1e300_and_negation_change_nothing_but_scale() {
     let x = grid(1000, -1.0, 1.0);
     let base = relative(x.clone(), |t| 1.0 / (1.0 + 25.0 * t * t), 0.01);
     let r0 = fit(&base, &settings(10)).unwrap();
-    for k in [1e-12, 1e12] {
+    // Down to the corners of the float range, and negated: the values are
+    // scaled before the solve, so the fit is unit-free.
+    for k in [1e-300, 1e-12, 1e12, 1e300, -1.0, -1e300] {
         let d = relative(x.clone(), |t| k / (1.0 + 25.0 * t * t), 0.01);
         let r = fit(&d, &settings(10)).unwrap();
         assert_verified(&format!("scaled {k:e}"), &d, &r);
