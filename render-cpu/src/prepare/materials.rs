@@ -45,6 +45,30 @@ pub(super) struct Built {
     pub(super) closed_form: Option<ClosedForm>,
 }
 
+impl Built {
+    /// A material without a closed form.
+    fn plain(brdf: Arc<dyn Brdf>, bytes: usize, description: String, key: u64) -> Self {
+        Self {
+            brdf,
+            bytes,
+            description,
+            key,
+            closed_form: None,
+        }
+    }
+
+    /// A rational fit, which is its own closed form.
+    fn fit(fit: Arc<FitInDomain>, bytes: usize, description: String, key: u64) -> Self {
+        Self {
+            brdf: fit.clone(),
+            bytes,
+            description,
+            key,
+            closed_form: Some(ClosedForm::Fit(fit)),
+        }
+    }
+}
+
 impl MaterialBuilder<'_> {
     fn material_error(&self, name: &str, e: brdf::BrdfError) -> RenderError {
         RenderError::Material {
@@ -179,13 +203,7 @@ impl MaterialBuilder<'_> {
         );
         let fit = Arc::new(FitInDomain::new(fitted));
         let d = d + &precision_note(&fit);
-        Ok(Built {
-            brdf: fit.clone(),
-            bytes,
-            description: d,
-            key,
-            closed_form: Some(ClosedForm::Fit(fit)),
-        })
+        Ok(Built::fit(fit, bytes, d, key))
     }
 
     pub(super) fn build(&mut self, name: &str, log: &mut PrepareLog) -> Result<Built, RenderError> {
@@ -203,13 +221,7 @@ impl MaterialBuilder<'_> {
             |v: [f64; 3], w: &str| check_rgb(self.origin, &format!("materials.{name}.{w}"), v);
         let analytic = |b: Arc<dyn Brdf>| -> Built {
             let description = b.name();
-            Built {
-                brdf: b,
-                bytes: 0,
-                description,
-                key,
-                closed_form: None,
-            }
+            Built::plain(b, 0, description, key)
         };
         let built: Built = match desc {
             MaterialDescription::Lambert { albedo } => {
@@ -262,13 +274,7 @@ impl MaterialBuilder<'_> {
                     format!("loaded {d}, {bytes} bytes"),
                     start.elapsed().as_secs_f64(),
                 );
-                Built {
-                    brdf: b,
-                    bytes,
-                    description: d,
-                    key,
-                    closed_form: None,
-                }
+                Built::plain(b, bytes, d, key)
             }
             MaterialDescription::Fit { path } => {
                 let p = resolve_path(self.base, &path)?;
@@ -294,13 +300,7 @@ impl MaterialBuilder<'_> {
                 );
                 let fit = Arc::new(FitInDomain::new(fitted));
                 let d = d + &precision_note(&fit);
-                Built {
-                    brdf: fit.clone(),
-                    bytes,
-                    description: d,
-                    key,
-                    closed_form: Some(ClosedForm::Fit(fit)),
-                }
+                Built::fit(fit, bytes, d, key)
             }
             MaterialDescription::Fitted { .. } => self.build_fitted(name, &desc, key, log)?,
         };
