@@ -9,8 +9,9 @@ use crate::geometry::HalfDiff;
 use crate::lobe::Lobe;
 use crate::reduce::{Reduction, Samples};
 use crate::{Brdf, BrdfError};
-use rational_core::{fit, FitSettings, IntervalData, RationalFunction};
+use rational_core::{fit, FitSettings, IntervalData, Progress, RationalFunction};
 use rayon::prelude::*;
+use std::sync::Arc;
 use std::time::Instant;
 
 /// Settings of [`fit_brdf`].
@@ -25,6 +26,22 @@ pub struct BrdfFitSettings {
     mode: ColourMode,
     lobe: Option<Lobe>,
     cap_rounds: usize,
+    channel_progress: Option<ChannelProgress>,
+}
+
+/// Callback receiving each channel's sweep progress: the channel (0, 1 or 2
+/// of the colour mode) and the engine's [`Progress`]; called from worker
+/// threads.
+pub type ChannelProgressFn = Arc<dyn Fn(usize, Progress) + Send + Sync>;
+
+/// A [`ChannelProgressFn`] that settings can hold and print.
+#[derive(Clone)]
+struct ChannelProgress(ChannelProgressFn);
+
+impl std::fmt::Debug for ChannelProgress {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("ChannelProgress")
+    }
 }
 
 /// Most refits [`BrdfFitSettings::with_cap_rounds`] may ask for.
@@ -45,6 +62,7 @@ impl Default for BrdfFitSettings {
             mode: ColourMode::Rgb,
             lobe: None,
             cap_rounds: 2,
+            channel_progress: None,
             fit: FitSettings::default()
                 .with_coeff_range(2, 60)
                 .expect("valid range"),
@@ -102,6 +120,13 @@ impl BrdfFitSettings {
     /// The engine's settings (basis, budgets, backend, pole control).
     pub fn with_fit_settings(mut self, s: FitSettings) -> Self {
         self.fit = s;
+        self
+    }
+
+    /// Reports each channel's sweep as it goes (the channels run in
+    /// parallel, so one callback sees all three).
+    pub fn with_channel_progress(mut self, f: ChannelProgressFn) -> Self {
+        self.channel_progress = Some(ChannelProgress(f));
         self
     }
 
@@ -531,7 +556,14 @@ fn fit_channel(
     } else {
         data
     };
-    let report = fit(&data, &s.fit).map_err(fit_err)?;
+    let engine = match &s.channel_progress {
+        Some(ChannelProgress(cb)) => {
+            let cb = cb.clone();
+            s.fit.clone().with_progress(Arc::new(move |p| cb(c, p)))
+        }
+        None => s.fit.clone(),
+    };
+    let report = fit(&data, &engine).map_err(fit_err)?;
     let (report, cap_check) = if cap > 0.0 && cap.is_finite() {
         let (r, k) = hold_below_cap(report, &data, s, c, cap).map_err(fit_err)?;
         (r, Some(k))

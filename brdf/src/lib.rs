@@ -55,7 +55,8 @@ pub use export::{compact, compact_batch, shader};
 pub use fit_report::{BrdfFitReport, ChannelReport};
 pub use fitted::{FittedBrdf, CEILING_OVER_PEAK};
 pub use fitting::{
-    assemble_channels, fit_brdf, fit_samples, fit_samples_channel, BrdfFitSettings, MAX_CAP_ROUNDS,
+    assemble_channels, fit_brdf, fit_samples, fit_samples_channel, BrdfFitSettings,
+    ChannelProgressFn, MAX_CAP_ROUNDS,
 };
 pub use geometry::{
     clamp_elevation, cross, dot, elevation, from_spherical, normalize, rotate, to_spherical,

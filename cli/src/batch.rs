@@ -345,6 +345,10 @@ pub fn run_batch(args: BatchArgs) -> Result<()> {
             eprintln!("{}: failed: {msg}", e.name);
         }
         outcomes.insert(k, outcome);
+        if crate::interrupt::requested() {
+            // The interrupted material counts as failed; the rest wait.
+            break;
+        }
     }
     let summary = write_summary(&args.out, &entries, &outcomes)?;
     let count = |f: fn(&Outcome) -> bool| outcomes.values().filter(|o| f(o)).count();

@@ -183,7 +183,8 @@ pub fn fit_to_json(args: &FitArgs) -> Result<serde_json::Value> {
         )?
         .with_backend(args.backend)?
         .with_pole_control(args.poles)
-        .with_search(args.search.unwrap_or(Search::Staircase));
+        .with_search(args.search.unwrap_or(Search::Staircase))
+        .with_cancel(crate::interrupt::flag());
     if !args.degree_weights.is_empty() {
         fit_settings = fit_settings.with_degree_weights(args.degree_weights.clone())?;
     }
@@ -209,6 +210,9 @@ pub fn fit_to_json(args: &FitArgs) -> Result<serde_json::Value> {
         .with_colour_mode(args.colour.unwrap_or_default())
         .with_cap_rounds(args.cap_rounds)?
         .with_fit_settings(fit_settings);
+    if let Some(bar) = crate::progress::channel_bar(args.colour.unwrap_or_default().names()) {
+        settings = settings.with_channel_progress(bar);
+    }
     if args.perceptual {
         let whole = settings.reduction().whole_hemisphere();
         settings = settings
@@ -227,6 +231,7 @@ pub fn fit_to_json(args: &FitArgs) -> Result<serde_json::Value> {
             settings = settings.with_lobe(Some(brdf::Lobe::fit(material.as_ref())));
         }
         let (f, r) = fit_brdf(material.as_ref(), &settings)?;
+        crate::progress::finish();
         let render = if args.no_render_check {
             None
         } else {
@@ -237,6 +242,7 @@ pub fn fit_to_json(args: &FitArgs) -> Result<serde_json::Value> {
         };
         (f, r, render)
     };
+    crate::progress::finish();
     let (peak, render) = render.unzip();
     if args.json {
         println!("{}", serde_json::to_string_pretty(&report)?);
@@ -320,26 +326,32 @@ fn run_fit_target(
         };
     }
     let material: std::sync::Arc<dyn Brdf> = load_material(&args.material, &args.format)?.into();
-    let settings = BrdfFitSettings::default()
+    let colour = args.colour.unwrap_or(brdf::ColourMode::LuminanceChroma);
+    let mut settings = BrdfFitSettings::default()
         .with_reduction(reduction)
         .with_baselines(false)
-        .with_colour_mode(args.colour.unwrap_or(brdf::ColourMode::LuminanceChroma))
+        .with_colour_mode(colour)
         .with_lobe(args.lobe.then(|| brdf::Lobe::fit(material.as_ref())))
         .with_design(brdf::PerceptualBounds::default())
         .with_cap_rounds(args.cap_rounds)?
         .with_fit_settings(fit_settings);
+    if let Some(bar) = crate::progress::channel_bar(colour.names()) {
+        settings = settings.with_channel_progress(bar);
+    }
     let mode = match args.dims {
         None => render_cpu::fidelity::TargetReduction::Auto,
         Some(_) => render_cpu::fidelity::TargetReduction::Fixed,
     };
-    let (fitted, target_report) = render_cpu::fidelity::fit_to_target(
+    let fitted = render_cpu::fidelity::fit_to_target(
         material.clone(),
         target,
         &settings,
         mode,
         render_cpu::fidelity::ValidationSettings::default(),
         args.time_budget,
-    )?;
+    );
+    crate::progress::finish();
+    let (fitted, target_report) = fitted?;
     println!(
         "{}: {} coefficients, {} bytes (f32), {}-D perceptual fit over the whole hemisphere",
         fitted.name,
@@ -365,11 +377,16 @@ fn run_fit_alta(args: &FitArgs, settings: &FitSettings) -> Result<serde_json::Va
         data.dim_out,
         data.param_out
     );
+    let mut settings = settings.clone();
+    if let Some(bar) = crate::progress::sweep_bar() {
+        settings = settings.with_progress(bar);
+    }
     let mut functions = Vec::new();
     let mut reports = Vec::new();
     for k in 0..data.dim_out {
         let d = data.channel(k, args.rel_tol)?;
-        let r = rational_core::fit(&d, settings).with_context(|| format!("output {k}"))?;
+        let r = rational_core::fit(&d, &settings).with_context(|| format!("output {k}"))?;
+        crate::progress::finish();
         println!("output {k}:\n{r}");
         functions.push(r.function.clone());
         reports.push(r);

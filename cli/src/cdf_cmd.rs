@@ -10,6 +10,7 @@ use cdf::{
     TabulatedSampler,
 };
 use clap::Args;
+use rational_core::FitSettings;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
@@ -126,7 +127,8 @@ pub fn run_cdf(args: CdfArgs) -> Result<()> {
     );
     let settings = CdfFitSettings::default()
         .with_tolerance(args.tol, 1e-3)?
-        .with_max_coeffs(mt, mp)?;
+        .with_max_coeffs(mt, mp)?
+        .with_engine(FitSettings::default().with_cancel(crate::interrupt::flag()));
     let (cdf, report) = match args.max_variance_ratio {
         None => fit_table(&table, &settings)?,
         Some(ratio) => {
@@ -204,13 +206,25 @@ pub fn run_stats(args: StatsArgs) -> Result<()> {
     let tabulated = TabulatedSampler::new(table);
     let rational = RationalSampler::new(file.cdf);
     let samplers: [&dyn Sampler; 3] = [&CosineSampler, &tabulated, &rational];
-    let rows = compare_samplers(
-        material.as_ref(),
-        &samplers,
-        &views,
-        args.samples,
-        args.seed,
-    );
+    // One estimate at a time, so that long runs (up to 1e10 samples) show
+    // where they are.
+    let bar = crate::progress::count_bar("estimates");
+    let total = views.len() * samplers.len();
+    let mut rows = Vec::with_capacity(total);
+    for &view in &views {
+        for sampler in samplers {
+            bar(rows.len(), total);
+            let one = [sampler];
+            rows.extend(compare_samplers(
+                material.as_ref(),
+                &one,
+                &[view],
+                args.samples,
+                args.seed,
+            ));
+        }
+    }
+    bar(total, total);
     println!(
         "{}: {} samples per estimate; variance of one sample of rho cos / pdf per channel",
         material.name(),

@@ -9,6 +9,7 @@ mod cdf_cmd;
 mod chart;
 mod csv;
 mod demo;
+mod interrupt;
 mod npy;
 mod output;
 mod plot;
@@ -205,7 +206,8 @@ impl FitArgs {
             .with_backend(self.backend)?
             .with_selection(self.selection)
             .with_search(self.search)
-            .with_pole_control(self.poles);
+            .with_pole_control(self.poles)
+            .with_cancel(interrupt::flag());
         if self.max_widenings > 0 {
             s = s.with_widening(self.widen, self.max_widenings)?;
         }
@@ -371,24 +373,51 @@ fn run_dump_qp(data: DataArgs, basis: BasisFamily, split: &str, out: &Path) -> R
     Ok(())
 }
 
-fn main() -> Result<()> {
+fn main() {
     exit_quietly_on_broken_pipe();
-    run(Cli::parse()).map_err(name_the_flags)
+    interrupt::install();
+    let Err(e) = run(Cli::parse()) else {
+        return;
+    };
+    progress::finish();
+    if interrupt::requested() {
+        eprintln!("interrupted: {}; no output written", chain_text(&e));
+        std::process::exit(interrupt::EXIT_INTERRUPTED);
+    }
+    eprintln!("error: {}", chain_text(&e));
+    if let Some(hint) = flag_hint(&e) {
+        eprintln!("  ({hint})");
+    }
+    std::process::exit(1);
+}
+
+/// The error and its causes on one line, each cause once: library errors
+/// often repeat their source in their own message, and that copy is not
+/// printed again.
+fn chain_text(e: &anyhow::Error) -> String {
+    let mut text = String::new();
+    for cause in e.chain() {
+        let message = cause.to_string();
+        if text.ends_with(&message) {
+            continue;
+        }
+        if !text.is_empty() {
+            text += ": ";
+        }
+        text += &message;
+    }
+    text
 }
 
 /// The library's "no feasible fit" names no flag; the CLI adds its own.
-fn name_the_flags(e: anyhow::Error) -> anyhow::Error {
+fn flag_hint(e: &anyhow::Error) -> Option<&'static str> {
     let empty_sweep = e.chain().any(|c| {
         matches!(
             c.downcast_ref::<rational_core::FitError>(),
             Some(rational_core::FitError::NoFeasibleFit { .. })
         )
     });
-    if empty_sweep {
-        e.context("no fit within the budget (flags: --max-coeffs for the budget, --rel-tol for the intervals)")
-    } else {
-        e
-    }
+    empty_sweep.then_some("flags: --max-coeffs raises the budget, --rel-tol widens the intervals")
 }
 
 fn run(cli: Cli) -> Result<()> {

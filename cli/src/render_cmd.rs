@@ -6,7 +6,6 @@ use render_cpu::{
     compare, false_colour, prepare_file, render, Image, RenderOptions, RenderOutput, SamplerKind,
     Scene,
 };
-use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -110,25 +109,10 @@ pub struct RenderArgs {
 
 /// A progress bar over image rows on standard error (terminals only).
 pub fn row_bar() -> impl Fn(usize, usize) + Sync {
-    let tty = std::io::stderr().is_terminal();
-    let start = Instant::now();
+    let bar = crate::progress::count_bar("render rows");
     move |done: usize, total: usize| {
-        if !tty || (done % 8 != 0 && done != total) {
-            return;
-        }
-        let width = 30;
-        let filled = width * done / total.max(1);
-        eprint!(
-            "\r  render [{}{}] {:>5}/{:<5} rows {:>7.1} s ",
-            "#".repeat(filled),
-            " ".repeat(width - filled),
-            done,
-            total,
-            start.elapsed().as_secs_f64()
-        );
-        std::io::stderr().flush().ok();
-        if done == total {
-            eprint!("\r{}\r", " ".repeat(72));
+        if done % 8 == 0 || done == total {
+            bar(done, total);
         }
     }
 }

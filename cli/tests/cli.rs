@@ -749,3 +749,63 @@ fn lobe_is_refused_for_scattered_and_alta_data() {
         assert!(err.contains("--lobe"), "{format}: {err}");
     }
 }
+
+/// Ctrl-C during a long `ratfit fit` stops the sweep within moments (the
+/// native solver checks the flag at every active-set change), exits with
+/// status 130, says so, and writes nothing.
+#[cfg(unix)]
+#[test]
+fn ctrl_c_stops_a_long_fit_promptly_and_writes_nothing() {
+    use std::time::{Duration, Instant};
+    let data = common::data_dir();
+    if !data.join("rgl").is_dir() {
+        eprintln!("SKIPPED Ctrl-C on a real fit: no data folder (set RATFIT_DATA)");
+        return;
+    }
+    let dir = scratch("interrupt");
+    let output = dir.join("fit.json");
+    // Minutes of work: 3-D, 10% intervals, up to 120 coefficients.
+    let mut child = ratfit()
+        .args(["fit", "--format", "rgl", "--dims", "3", "--rel-tol", "0.1"])
+        .args(["--max-coeffs", "120", "--no-render-check", "-o"])
+        .arg(&output)
+        .arg(data.join("rgl/cm_military_green_rgb.bsdf"))
+        .stderr(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(Duration::from_secs(3));
+    let sent = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(sent.success());
+    let asked = Instant::now();
+    let status = loop {
+        if let Some(s) = child.try_wait().unwrap() {
+            break s;
+        }
+        if asked.elapsed() > Duration::from_secs(30) {
+            child.kill().ok();
+            panic!("still running 30 s after Ctrl-C");
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    let mut err = String::new();
+    std::io::Read::read_to_string(child.stderr.as_mut().unwrap(), &mut err).unwrap();
+    assert_eq!(status.code(), Some(130), "{err}");
+    assert!(
+        err.contains("interrupted") && err.contains("cancelled"),
+        "{err}"
+    );
+    assert!(
+        !output.exists(),
+        "an interrupted fit wrote {}",
+        output.display()
+    );
+    eprintln!(
+        "stopped {:.2} s after Ctrl-C",
+        asked.elapsed().as_secs_f64()
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -1,6 +1,6 @@
 //! Run-time selection among the compiled backends.
 
-use crate::{Error, LdpProblem, LdpSolver, Solution, SolveOptions};
+use crate::{Error, LdpProblem, LdpSolver, Solution, SolveOptions, Status};
 use std::str::FromStr;
 
 /// The solvers this crate knows. Only [`Backend::Native`] is always compiled;
@@ -86,7 +86,19 @@ impl Backend {
     /// # Errors
     /// As [`Backend::solver`] and [`LdpSolver::solve`].
     pub fn solve(self, problem: &LdpProblem, options: &SolveOptions) -> Result<Solution, Error> {
-        self.solver()?.solve(problem, options)
+        let solver = self.solver()?;
+        if options.cancelled() {
+            let zero = vec![0.0; problem.cols()];
+            return Ok(Solution::measured(
+                problem,
+                Status::Cancelled,
+                zero,
+                0,
+                Vec::new(),
+                self.name(),
+            ));
+        }
+        solver.solve(problem, options)
     }
 }
 

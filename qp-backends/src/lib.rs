@@ -47,7 +47,7 @@ pub use backends::native::NativeSolver;
 #[cfg(feature = "osqp")]
 pub use backends::osqp::OsqpSolver;
 pub use error::Error;
-pub use options::SolveOptions;
+pub use options::{CancelFlag, SolveOptions};
 pub use problem::LdpProblem;
 pub use solution::{Residuals, Solution, Status};
 

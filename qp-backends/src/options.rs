@@ -1,6 +1,32 @@
 //! Solver settings, built with `Default` plus validated `with_*` methods.
 
 use crate::Error;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+
+/// A shared flag that asks a solve to stop: the native backend checks it at
+/// every active-set change, the others before they start. Two flags compare
+/// equal when they are the same flag.
+#[derive(Debug, Clone, Default)]
+pub struct CancelFlag(Arc<AtomicBool>);
+
+impl CancelFlag {
+    /// Wraps a flag that another thread (a signal handler, a deadline) sets.
+    pub fn new(flag: Arc<AtomicBool>) -> Self {
+        Self(flag)
+    }
+
+    /// Whether a stop was asked for.
+    pub fn is_set(&self) -> bool {
+        self.0.load(Ordering::Relaxed)
+    }
+}
+
+impl PartialEq for CancelFlag {
+    fn eq(&self, other: &Self) -> bool {
+        Arc::ptr_eq(&self.0, &other.0)
+    }
+}
 
 /// Settings shared by every backend (each uses what applies to it).
 #[derive(Debug, Clone, PartialEq)]
@@ -12,6 +38,7 @@ pub struct SolveOptions {
     pub(crate) generation_batch: Option<usize>,
     pub(crate) polish: bool,
     pub(crate) parallel: bool,
+    pub(crate) cancel: Option<CancelFlag>,
 }
 
 impl Default for SolveOptions {
@@ -24,6 +51,7 @@ impl Default for SolveOptions {
             generation_batch: None,
             polish: true,
             parallel: true,
+            cancel: None,
         }
     }
 }
@@ -100,6 +128,20 @@ impl SolveOptions {
     pub fn with_parallel(mut self, on: bool) -> Self {
         self.parallel = on;
         self
+    }
+
+    /// A flag that stops the solve once set: it returns
+    /// [`Status::Cancelled`](crate::Status::Cancelled) with the point reached
+    /// so far (native: within one active-set change; other backends only
+    /// when set before they start).
+    pub fn with_cancel(mut self, flag: CancelFlag) -> Self {
+        self.cancel = Some(flag);
+        self
+    }
+
+    /// Whether the cancel flag, if any, is set.
+    pub(crate) fn cancelled(&self) -> bool {
+        self.cancel.as_ref().is_some_and(CancelFlag::is_set)
     }
 
     pub(crate) fn max_iterations_for(&self, cols: usize) -> usize {

@@ -19,6 +19,8 @@ pub enum Status {
     IterationLimit,
     /// The backend lost accuracy (degenerate or ill-conditioned data).
     NumericalTrouble,
+    /// The caller's cancel flag stopped the solve before it ended.
+    Cancelled,
 }
 
 impl std::fmt::Display for Status {
@@ -29,6 +31,7 @@ impl std::fmt::Display for Status {
             Status::Infeasible => "infeasible",
             Status::IterationLimit => "iteration-limit",
             Status::NumericalTrouble => "numerical-trouble",
+            Status::Cancelled => "cancelled",
         };
         f.write_str(s)
     }

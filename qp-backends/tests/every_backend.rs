@@ -383,3 +383,29 @@ fn unknown_and_missing_backends_are_errors() {
         }
     }
 }
+
+/// A set cancel flag stops every backend with `Status::Cancelled` and no
+/// verified point; the native solver also checks it inside its loop (called
+/// here directly, past `Backend::solve`'s check before the start).
+#[test]
+fn a_set_cancel_flag_stops_every_backend() {
+    use qp_backends::{CancelFlag, LdpSolver, NativeSolver};
+    use std::sync::atomic::AtomicBool;
+    use std::sync::Arc;
+    // x1 >= 1, x2 >= 1: two active-set changes are needed.
+    let p = LdpProblem::new(vec![1.0, 0.0, 0.0, 1.0], vec![1.0, 1.0], 2).unwrap();
+    let flag = Arc::new(AtomicBool::new(true));
+    let options = SolveOptions::default().with_cancel(CancelFlag::new(flag.clone()));
+    for b in Backend::available() {
+        let s = b.solve(&p, &options).unwrap();
+        assert_eq!(s.status, Status::Cancelled, "{b}");
+        assert!(!s.is_verified(), "{b}");
+    }
+    let s = NativeSolver.solve(&p, &options).unwrap();
+    assert_eq!(s.status, Status::Cancelled);
+    assert!(!s.is_verified());
+    flag.store(false, std::sync::atomic::Ordering::Relaxed);
+    let s = NativeSolver.solve(&p, &options).unwrap();
+    assert_eq!(s.status, Status::Solved);
+    assert!(rel_err(&s.x, &[1.0, 1.0]) < 1e-12);
+}

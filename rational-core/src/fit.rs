@@ -10,7 +10,7 @@ use crate::{
     Basis, FitError, FitSettings, IntervalData, PoleControl, Progress, RationalFunction, Search,
     Selection,
 };
-use qp_backends::{LdpProblem, Status};
+use qp_backends::{CancelFlag, LdpProblem, Status};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
@@ -200,8 +200,16 @@ impl<'a> Prepared<'a> {
         // are assembled once below.
         let (function, verification) = loop {
             let problem = self.problem(data, n_p, n_q, &rows)?;
-            let options = self.settings.solve_options.clone().with_warm_start(warm);
+            let mut options = self.settings.solve_options.clone().with_warm_start(warm);
+            if let Some(flag) = &self.settings.cancel {
+                options = options.with_cancel(CancelFlag::new(flag.clone()));
+            }
             let sol = self.settings.backend.solve(&problem, &options)?;
+            if sol.status == Status::Cancelled {
+                return Err(FitError::Cancelled {
+                    splits_tried: self.solved.load(Ordering::Relaxed),
+                });
+            }
             summary.status = sol.status;
             summary.iterations += sol.iterations;
             summary.depth = sol.residuals.depth;

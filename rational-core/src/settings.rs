@@ -281,8 +281,8 @@ impl FitSettings {
     }
 
     /// A flag that stops the sweep: once set, no further split is solved and
-    /// the fit returns [`FitError::Cancelled`] (a split already being solved
-    /// finishes first). Lets a caller interrupt a long fit (Ctrl-C in an
+    /// the fit returns [`FitError::Cancelled`]; splits being solved stop at
+    /// their next active-set change (native backend) or when they end. Lets a caller interrupt a long fit (Ctrl-C in an
     /// interactive session, a deadline in a server).
     pub fn with_cancel(mut self, flag: Arc<AtomicBool>) -> Self {
         self.cancel = Some(flag);

@@ -64,6 +64,7 @@ enum InnerEnd {
     Converged,
     Infeasible,
     IterationLimit,
+    Cancelled,
 }
 
 /// State of the dual method: `J` (n x n orthogonal, column-major), `R` (upper
@@ -249,7 +250,12 @@ impl DualActiveSet {
     /// decides between convergence and new candidates. Any violated row is a
     /// valid next row for the dual method, so the optimum is the same; small
     /// sets are priced in full every iteration.
-    fn solve(&mut self, ws: &WorkingSet, is_active: &mut Vec<bool>) -> InnerEnd {
+    fn solve(
+        &mut self,
+        ws: &WorkingSet,
+        is_active: &mut Vec<bool>,
+        options: &SolveOptions,
+    ) -> InnerEnd {
         let tol = rounding_tolerance(self.n);
         is_active.resize(ws.len(), false);
         let keep = (4 * self.n).max(256);
@@ -314,6 +320,9 @@ impl DualActiveSet {
                 self.iterations += 1;
                 if self.iterations > self.max_iterations {
                     return InnerEnd::IterationLimit;
+                }
+                if options.cancelled() {
+                    return InnerEnd::Cancelled;
                 }
                 let z_norm = self.directions(&np);
                 let (t1, drop_at) = self.partial_step();
@@ -495,9 +504,10 @@ fn solve_native(problem: &LdpProblem, options: &SolveOptions) -> Solution {
     );
     let mut is_active = Vec::new();
     let status = loop {
-        match state.solve(&ws, &mut is_active) {
+        match state.solve(&ws, &mut is_active, options) {
             InnerEnd::Infeasible => break Status::Infeasible,
             InnerEnd::IterationLimit => break Status::IterationLimit,
+            InnerEnd::Cancelled => break Status::Cancelled,
             InnerEnd::Converged => {}
         }
         if !generate {
