@@ -5,8 +5,8 @@
 //! docstrings and the Dask front end.
 //!
 //! Every fit runs with the GIL released on a worker thread while the calling
-//! thread watches for signals, so Ctrl-C stops a long sweep (at the next
-//! split) and raises `KeyboardInterrupt`.
+//! thread watches for signals, so Ctrl-C stops a long sweep (within one
+//! active-set change of the native solver) and raises `KeyboardInterrupt`.
 
 mod errors;
 mod function;
