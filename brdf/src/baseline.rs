@@ -188,25 +188,15 @@ pub fn cook_torrance(samples: &Samples, used: &[usize], c: usize) -> BaselineRep
     )
 }
 
+/// The Levenberg-Marquardt step: `a` is `J^T J` with its diagonal raised,
+/// symmetric positive definite unless the Jacobian is degenerate (`None`).
 fn solve3(a: [[f64; 3]; 3], b: [f64; 3]) -> Option<[f64; 3]> {
-    let det = |m: &[[f64; 3]; 3]| {
-        m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
-            - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
-            + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
-    };
-    let d = det(&a);
-    if d.abs() < 1e-300 || !d.is_finite() {
-        return None;
-    }
-    let mut x = [0.0; 3];
-    for k in 0..3 {
-        let mut m = a;
-        for i in 0..3 {
-            m[i][k] = b[i];
-        }
-        x[k] = det(&m) / d;
-    }
-    Some(x)
+    use faer::linalg::solvers::Solve;
+    let m = faer::Mat::<f64>::from_fn(3, 3, |i, k| a[i][k]);
+    let llt = m.llt(faer::Side::Lower).ok()?;
+    let x = llt.solve(faer::Mat::<f64>::from_fn(3, 1, |i, _| b[i]));
+    let x = [x[(0, 0)], x[(1, 0)], x[(2, 0)]];
+    x.iter().all(|v| v.is_finite()).then_some(x)
 }
 
 /// Cook-Torrance GGX fitted to a whole material the way the literature fits
