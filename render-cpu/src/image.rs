@@ -163,66 +163,30 @@ fn extension(path: &Path) -> String {
         .to_ascii_lowercase()
 }
 
-fn crc32(data: &[u8]) -> u32 {
-    let mut table = [0u32; 256];
-    for (n, t) in table.iter_mut().enumerate() {
-        let mut c = n as u32;
-        for _ in 0..8 {
-            c = if c & 1 != 0 {
-                0xEDB8_8320 ^ (c >> 1)
-            } else {
-                c >> 1
-            };
-        }
-        *t = c;
-    }
-    !data.iter().fold(!0u32, |c, &b| {
-        table[((c ^ b as u32) & 0xFF) as usize] ^ (c >> 8)
-    })
-}
-
-fn chunk(out: &mut Vec<u8>, kind: &[u8; 4], data: &[u8]) {
-    out.extend_from_slice(&(data.len() as u32).to_be_bytes());
-    let start = out.len();
-    out.extend_from_slice(kind);
-    out.extend_from_slice(data);
-    let crc = crc32(&out[start..]);
-    out.extend_from_slice(&crc.to_be_bytes());
-}
-
-/// Encodes 8-bit RGB (row-major, 3 bytes a pixel) as a deflate-compressed
-/// PNG.
+/// Encodes 8-bit RGB (row-major, 3 bytes a pixel) as PNG (the `png`
+/// crate, its default adaptive filters).
 ///
-/// # Panics
-/// If `rgb.len() != width * height * 3` (a programming error).
-pub fn encode_png(width: usize, height: usize, rgb: &[u8]) -> Vec<u8> {
-    assert_eq!(rgb.len(), width * height * 3, "byte count");
-    let mut raw = Vec::with_capacity((width * 3 + 1) * height);
-    let mut prev: Option<&[u8]> = None;
-    for row in rgb.chunks_exact(width * 3) {
-        // Filter "up" (2) helps smooth renders; the first row has none.
-        match prev {
-            Some(p) => {
-                raw.push(2);
-                raw.extend(row.iter().zip(p).map(|(a, b)| a.wrapping_sub(*b)));
-            }
-            None => {
-                raw.push(0);
-                raw.extend_from_slice(row);
-            }
-        }
-        prev = Some(row);
+/// # Errors
+/// A zero or too large size, or `rgb.len() != width * height * 3`.
+pub fn encode_png(width: usize, height: usize, rgb: &[u8]) -> Result<Vec<u8>, std::io::Error> {
+    let bad = |reason: String| std::io::Error::new(std::io::ErrorKind::InvalidInput, reason);
+    if rgb.len() != width.saturating_mul(height).saturating_mul(3) {
+        return Err(bad(format!(
+            "{} bytes for {width} x {height} RGB pixels",
+            rgb.len()
+        )));
     }
-    let z = miniz_oxide::deflate::compress_to_vec_zlib(&raw, 8);
-    let mut out = b"\x89PNG\r\n\x1a\n".to_vec();
-    let mut ihdr = Vec::new();
-    ihdr.extend_from_slice(&(width as u32).to_be_bytes());
-    ihdr.extend_from_slice(&(height as u32).to_be_bytes());
-    ihdr.extend_from_slice(&[8, 2, 0, 0, 0]);
-    chunk(&mut out, b"IHDR", &ihdr);
-    chunk(&mut out, b"IDAT", &z);
-    chunk(&mut out, b"IEND", &[]);
-    out
+    let side = |v: usize| u32::try_from(v).map_err(|_| bad(format!("{v} pixels on a side")));
+    let mut out = Vec::new();
+    let mut encoder = png::Encoder::new(&mut out, side(width)?, side(height)?);
+    encoder.set_color(png::ColorType::Rgb);
+    encoder.set_depth(png::BitDepth::Eight);
+    let mut writer = encoder.write_header().map_err(std::io::Error::other)?;
+    writer
+        .write_image_data(rgb)
+        .map_err(std::io::Error::other)?;
+    writer.finish().map_err(std::io::Error::other)?;
+    Ok(out)
 }
 
 /// Largest width or height of an image read from a file (as of a render).
@@ -233,7 +197,7 @@ pub const MAX_IMAGE_SIDE: usize = 16_384;
 /// # Errors
 /// The file cannot be written.
 pub fn write_png(path: &Path, width: usize, height: usize, rgb: &[u8]) -> Result<(), RenderError> {
-    let bytes = encode_png(width, height, rgb);
+    let bytes = encode_png(width, height, rgb).map_err(|e| crate::error::io(path, e))?;
     write_atomic(path, |tmp| std::fs::write(tmp, &bytes)).map_err(|e| crate::error::io(path, e))
 }
 
@@ -287,29 +251,17 @@ mod tests {
     }
 
     #[test]
-    fn png_is_decodable_and_checksums_are_right() {
-        assert_eq!(crc32(b"IEND"), 0xAE42_6082);
-        let rgb: Vec<u8> = (0..4 * 3 * 3).map(|i| (i * 7) as u8).collect();
-        let png = encode_png(4, 3, &rgb);
-        assert!(png.starts_with(b"\x89PNG\r\n\x1a\n"));
-        // Inflate the IDAT stream back and undo the filters.
-        let len = u32::from_be_bytes(png[33..37].try_into().unwrap()) as usize;
-        assert_eq!(&png[37..41], b"IDAT");
-        let raw = miniz_oxide::inflate::decompress_to_vec_zlib(&png[41..41 + len]).unwrap();
-        let mut rows: Vec<Vec<u8>> = Vec::new();
-        for (i, r) in raw.chunks_exact(13).enumerate() {
-            let row: Vec<u8> = match r[0] {
-                0 => r[1..].to_vec(),
-                2 => r[1..]
-                    .iter()
-                    .zip(&rows[i - 1])
-                    .map(|(a, b)| a.wrapping_add(*b))
-                    .collect(),
-                f => panic!("filter {f}"),
-            };
-            rows.push(row);
-        }
-        assert_eq!(rows.concat(), rgb);
+    fn png_decodes_to_the_same_pixels() {
+        let rgb: Vec<u8> = (0..5 * 3 * 3).map(|i| (i * 7) as u8).collect();
+        let png = encode_png(5, 3, &rgb).unwrap();
+        let decoder = png::Decoder::new(std::io::Cursor::new(png));
+        let mut reader = decoder.read_info().unwrap();
+        let mut pixels = vec![0; reader.output_buffer_size().unwrap()];
+        let info = reader.next_frame(&mut pixels).unwrap();
+        assert_eq!((info.width, info.height), (5, 3));
+        assert_eq!(info.color_type, png::ColorType::Rgb);
+        assert_eq!(&pixels[..info.buffer_size()], &rgb[..]);
+        assert!(encode_png(5, 3, &rgb[1..]).is_err());
     }
 
     #[test]
