@@ -1,4 +1,5 @@
-//! Reading numeric CSV: comma separated, optional header row.
+//! Numeric CSV through the `csv` crate: comma separated, optional header
+//! row, errors by line and column.
 
 use anyhow::{bail, Context, Result};
 use std::path::Path;
@@ -20,50 +21,50 @@ pub fn read_numeric(path: &Path) -> Result<Vec<Vec<f64>>> {
     parse_numeric(&text).with_context(|| format!("in {}", path.display()))
 }
 
-/// As [`read_numeric`] on text.
+/// As [`read_numeric`] on text: fields trimmed, `#` lines and blank lines
+/// skipped, a UTF-8 byte-order mark dropped (else the first data row would
+/// not parse, and so be taken as a header without a word).
 pub fn parse_numeric(text: &str) -> Result<Vec<Vec<f64>>> {
-    // A UTF-8 byte-order mark would make the first data row unparseable,
-    // and so silently a "header".
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
-    let mut rows = Vec::new();
+    let mut reader = csv::ReaderBuilder::new()
+        .has_headers(false)
+        .flexible(true)
+        .comment(Some(b'#'))
+        .trim(csv::Trim::All)
+        .from_reader(text.as_bytes());
+    let mut rows: Vec<Vec<f64>> = Vec::new();
     let mut width = None;
-    for (lineno, line) in text.lines().enumerate() {
-        let line = line.trim();
-        if line.is_empty() || line.starts_with('#') {
+    for record in reader.records() {
+        let record = record?;
+        let line = record.position().map_or(0, |p| line_of(text, p.byte()));
+        if record.iter().all(str::is_empty) {
             continue;
         }
-        let fields: Vec<&str> = line.split(',').map(str::trim).collect();
-        let parsed: Result<Vec<f64>, _> = fields.iter().map(|f| f.parse::<f64>()).collect();
+        let parsed: Result<Vec<f64>, _> = record.iter().map(str::parse::<f64>).collect();
         let row = match parsed {
             Ok(r) => r,
             Err(_) if rows.is_empty() && width.is_none() => {
-                width = Some(fields.len()); // header
+                width = Some(record.len()); // header
                 continue;
             }
             Err(e) => {
-                let col = fields
+                let col = record
                     .iter()
                     .position(|f| f.parse::<f64>().is_err())
                     .unwrap_or(0);
                 bail!(
-                    "line {}: column {} `{}` is not a number ({e})",
-                    lineno + 1,
+                    "line {line}: column {} `{}` is not a number ({e})",
                     col + 1,
-                    fields[col]
+                    &record[col]
                 );
             }
         };
         if let Some(k) = row.iter().position(|v| !v.is_finite()) {
-            bail!(
-                "line {}: column {} is not finite ({})",
-                lineno + 1,
-                k + 1,
-                row[k]
-            );
+            bail!("line {line}: column {} is not finite ({})", k + 1, row[k]);
         }
         match width {
             Some(w) if w != row.len() => {
-                bail!("line {}: {} columns, expected {w}", lineno + 1, row.len())
+                bail!("line {line}: {} columns, expected {w}", row.len())
             }
             _ => width = Some(row.len()),
         }
@@ -73,6 +74,20 @@ pub fn parse_numeric(text: &str) -> Result<Vec<Vec<f64>>> {
         bail!("no numeric rows");
     }
     Ok(rows)
+}
+
+/// The line of the record that csv places at `byte`: its position is where
+/// the reader started, before the blank and `#` lines it passed over.
+fn line_of(text: &str, byte: u64) -> usize {
+    let mut at = usize::try_from(byte).unwrap_or(usize::MAX).min(text.len());
+    while let Some(end) = text[at..].find('\n') {
+        let line = &text[at..at + end];
+        if !(line.trim().is_empty() || line.starts_with('#')) {
+            break;
+        }
+        at += end + 1;
+    }
+    text[..at].matches('\n').count() + 1
 }
 
 #[cfg(test)]
@@ -101,5 +116,12 @@ mod tests {
             .contains("column 2"));
         assert!(parse_numeric("1,NaN\n").is_err());
         assert!(parse_numeric("x,y\n").is_err());
+        // Comments, blank lines and spaces around fields.
+        assert_eq!(
+            parse_numeric("# a comment\n x , v\n\n 1 , 2\n").unwrap(),
+            vec![vec![1.0, 2.0]]
+        );
+        let e = parse_numeric("1,2\n\n# c\n3,abc\n").unwrap_err().to_string();
+        assert!(e.contains("line 4") && e.contains("`abc`"), "{e}");
     }
 }

@@ -30,66 +30,65 @@ pub const COLUMNS: [&str; 22] = [
     "note",
 ];
 
-use crate::csv::quote;
-
-fn opt(v: Option<f64>) -> String {
-    v.map_or_else(String::new, |v| format!("{v:e}"))
+/// One line of `results.csv`: a [`Row`] with the run's thread count and
+/// commit (fields in the order of [`COLUMNS`]).
+#[derive(serde::Serialize, serde::Deserialize)]
+struct Record {
+    instance: String,
+    mode: String,
+    backend: String,
+    rel_tol: f64,
+    size: String,
+    samples: usize,
+    n_p: usize,
+    n_q: usize,
+    status: String,
+    verified: bool,
+    depth: Option<f64>,
+    max_violation: Option<f64>,
+    max_rel_error: Option<f64>,
+    mean_rel_error: Option<f64>,
+    median_s: Option<f64>,
+    min_s: Option<f64>,
+    max_s: Option<f64>,
+    reps: usize,
+    iterations: Option<usize>,
+    threads: usize,
+    commit: String,
+    note: String,
 }
 
 /// Writes the rows with the run's thread count and commit.
 pub fn write_csv(path: &Path, rows: &[Row], threads: usize, commit: &str) -> Result<()> {
-    let mut s = COLUMNS.join(",");
-    s.push('\n');
+    let mut writer = csv::Writer::from_writer(Vec::new());
     for r in rows {
-        let fields = [
-            quote(&r.instance),
-            r.mode.clone(),
-            r.backend.clone(),
-            format!("{:e}", r.rel_tol),
-            quote(&r.size),
-            r.samples.to_string(),
-            r.n_p.to_string(),
-            r.n_q.to_string(),
-            quote(&r.status),
-            r.verified.to_string(),
-            opt(r.depth),
-            opt(r.max_violation),
-            opt(r.max_rel_error),
-            opt(r.mean_rel_error),
-            opt(r.median_s),
-            opt(r.min_s),
-            opt(r.max_s),
-            r.reps.to_string(),
-            r.iterations.map_or_else(String::new, |i| i.to_string()),
-            threads.to_string(),
-            quote(commit),
-            quote(&r.note),
-        ];
-        s.push_str(&fields.join(","));
-        s.push('\n');
+        writer.serialize(Record {
+            instance: r.instance.clone(),
+            mode: r.mode.clone(),
+            backend: r.backend.clone(),
+            rel_tol: r.rel_tol,
+            size: r.size.clone(),
+            samples: r.samples,
+            n_p: r.n_p,
+            n_q: r.n_q,
+            status: r.status.clone(),
+            verified: r.verified,
+            depth: r.depth,
+            max_violation: r.max_violation,
+            max_rel_error: r.max_rel_error,
+            mean_rel_error: r.mean_rel_error,
+            median_s: r.median_s,
+            min_s: r.min_s,
+            max_s: r.max_s,
+            reps: r.reps,
+            iterations: r.iterations,
+            threads,
+            commit: commit.to_string(),
+            note: r.note.clone(),
+        })?;
     }
-    crate::output::write(path, s)
-}
-
-/// Splits one CSV line, honouring double quotes.
-fn split_line(line: &str) -> Vec<String> {
-    let mut out = Vec::new();
-    let mut cur = String::new();
-    let mut quoted = false;
-    let mut chars = line.chars().peekable();
-    while let Some(c) = chars.next() {
-        match (c, quoted) {
-            ('"', true) if chars.peek() == Some(&'"') => {
-                cur.push('"');
-                chars.next();
-            }
-            ('"', _) => quoted = !quoted,
-            (',', false) => out.push(std::mem::take(&mut cur)),
-            _ => cur.push(c),
-        }
-    }
-    out.push(cur);
-    out
+    let bytes = writer.into_inner().map_err(|e| anyhow::anyhow!("{e}"))?;
+    crate::output::write(path, String::from_utf8(bytes)?)
 }
 
 /// Reads `results.csv` back.
@@ -99,56 +98,38 @@ fn split_line(line: &str) -> Vec<String> {
 pub fn read_csv(path: &Path) -> Result<Vec<Row>> {
     let text =
         std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
-    let mut lines = text.lines();
-    let header = lines.next().unwrap_or_default();
-    if split_line(header) != COLUMNS {
+    let mut reader = csv::Reader::from_reader(text.as_bytes());
+    let header = reader
+        .headers()
+        .with_context(|| format!("{}: no header", path.display()))?;
+    if header.iter().ne(COLUMNS) {
         bail!("{}: the header is not that of results.csv", path.display());
     }
     let mut rows = Vec::new();
-    for (k, line) in lines.enumerate() {
-        let at = || format!("{} line {}", path.display(), k + 2);
-        let f = split_line(line);
-        if f.len() != COLUMNS.len() {
-            bail!("{}: {} fields, expected {}", at(), f.len(), COLUMNS.len());
-        }
-        let num = |i: usize| -> Result<Option<f64>> {
-            if f[i].is_empty() {
-                Ok(None)
-            } else {
-                Ok(Some(f[i].parse::<f64>().with_context(|| {
-                    format!("{}: {} `{}` is not a number", at(), COLUMNS[i], f[i])
-                })?))
-            }
-        };
-        let int = |i: usize| -> Result<usize> {
-            f[i].parse::<usize>()
-                .with_context(|| format!("{}: {} `{}` is not a count", at(), COLUMNS[i], f[i]))
-        };
+    for record in reader.deserialize::<Record>() {
+        // csv's message names the line and the field.
+        let r = record.with_context(|| format!("{}: a malformed row", path.display()))?;
         rows.push(Row {
-            instance: f[0].clone(),
-            mode: f[1].clone(),
-            backend: f[2].clone(),
-            rel_tol: num(3)?.unwrap_or(f64::NAN),
-            size: f[4].clone(),
-            samples: int(5)?,
-            n_p: int(6)?,
-            n_q: int(7)?,
-            status: f[8].clone(),
-            verified: f[9] == "true",
-            depth: num(10)?,
-            max_violation: num(11)?,
-            max_rel_error: num(12)?,
-            mean_rel_error: num(13)?,
-            median_s: num(14)?,
-            min_s: num(15)?,
-            max_s: num(16)?,
-            reps: int(17)?,
-            iterations: if f[18].is_empty() {
-                None
-            } else {
-                Some(int(18)?)
-            },
-            note: f[21].clone(),
+            instance: r.instance,
+            mode: r.mode,
+            backend: r.backend,
+            rel_tol: r.rel_tol,
+            size: r.size,
+            samples: r.samples,
+            n_p: r.n_p,
+            n_q: r.n_q,
+            status: r.status,
+            verified: r.verified,
+            depth: r.depth,
+            max_violation: r.max_violation,
+            max_rel_error: r.max_rel_error,
+            mean_rel_error: r.mean_rel_error,
+            median_s: r.median_s,
+            min_s: r.min_s,
+            max_s: r.max_s,
+            reps: r.reps,
+            iterations: r.iterations,
+            note: r.note,
         });
     }
     Ok(rows)
