@@ -403,7 +403,8 @@ fn write_summary(
         };
         let fitted = value
             .as_ref()
-            .and_then(crate::brdf_cmd::load_fitted)
+            .zip(file.as_deref())
+            .and_then(|(v, f)| crate::brdf_cmd::load_fitted(v, f))
             .and_then(Result::ok);
         let number = |p: &str| {
             value

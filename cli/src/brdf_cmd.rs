@@ -405,7 +405,7 @@ pub fn read_json(path: &Path) -> Result<serde_json::Value> {
 
 /// Reads a fitted BRDF file written by `ratfit fit`.
 pub fn read_fitted(path: &Path) -> Result<FittedBrdf> {
-    load_fitted(&read_json(path)?).with_context(|| {
+    load_fitted(&read_json(path)?, path).with_context(|| {
         format!(
             "{} is not a BRDF fit (write one with `ratfit fit`)",
             path.display()
@@ -413,11 +413,13 @@ pub fn read_fitted(path: &Path) -> Result<FittedBrdf> {
     })?
 }
 
-/// Loads a fitted BRDF written by `ratfit fit`.
-pub fn load_fitted(value: &serde_json::Value) -> Option<Result<FittedBrdf>> {
-    value
-        .get("brdf")
-        .map(|b| serde_json::from_value(b.clone()).context("malformed fitted BRDF"))
+/// Loads the fitted BRDF of `path` (a `ratfit fit` output read as
+/// `value`); `None` when it holds none.
+pub fn load_fitted(value: &serde_json::Value, path: &Path) -> Option<Result<FittedBrdf>> {
+    value.get("brdf").map(|b| {
+        serde_json::from_value(b.clone())
+            .with_context(|| format!("{}: malformed fitted BRDF", path.display()))
+    })
 }
 
 /// `r,g,b` per row of `theta_i,phi_i,theta_o,phi_o`.

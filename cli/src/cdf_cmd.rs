@@ -98,7 +98,7 @@ pub fn material_from(path: &Path, format: Option<&str>) -> Result<Box<dyn Brdf>>
     match format {
         Some("fit") | None => {
             let value = read_json(path)?;
-            match load_fitted(&value) {
+            match load_fitted(&value, path) {
                 Some(f) => Ok(Box::new(f?)),
                 None => bail!(
                     "{} is not a BRDF fit; give --format merl or rgl for a measured file",

@@ -121,7 +121,9 @@ mod tests {
             parse_numeric("# a comment\n x , v\n\n 1 , 2\n").unwrap(),
             vec![vec![1.0, 2.0]]
         );
-        let e = parse_numeric("1,2\n\n# c\n3,abc\n").unwrap_err().to_string();
+        let e = parse_numeric("1,2\n\n# c\n3,abc\n")
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("line 4") && e.contains("`abc`"), "{e}");
     }
 }

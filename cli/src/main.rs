@@ -293,7 +293,7 @@ fn exit_quietly_on_broken_pipe() {
 /// `ratfit eval`: a fit at points or at direction pairs.
 fn run_eval(path: &Path, points: Option<PathBuf>, directions: Option<PathBuf>) -> Result<()> {
     let value = brdf_cmd::read_json(path)?;
-    if let Some(fitted) = brdf_cmd::load_fitted(&value) {
+    if let Some(fitted) = brdf_cmd::load_fitted(&value, path) {
         let dirs = directions.context("a BRDF fit is evaluated at --directions")?;
         print!(
             "{}",

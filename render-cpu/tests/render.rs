@@ -430,6 +430,16 @@ fn bad_scenes_give_named_errors() {
             "albedo = [1.0, nan, 1.0]",
             "albedo",
         ),
+        (
+            "albedo = [1.0, 1.0, 1.0]",
+            "albedo = [1e308, 0.5, 0.5]",
+            "must lie in [0, 1]",
+        ),
+        (
+            "radiance = [1.0, 1.0, 1.0]",
+            "radiance = [1e300, 1.0, 1.0]",
+            "at most 1e12",
+        ),
         ("width = 24", "width = 0", "resolution"),
         (
             "kind = \"direct\"",

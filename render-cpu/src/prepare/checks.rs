@@ -72,11 +72,36 @@ pub(super) fn check_vec(
     Ok(v)
 }
 
+/// Largest light colour (radiance, irradiance, intensity) a scene may give:
+/// far above any physical scene in any unit, and small enough that sums of
+/// thousands of lights stay finite in the f32 image.
+pub const MAX_LIGHT_VALUE: f64 = 1e12;
+
 pub(super) fn check_rgb(origin: &str, what: &str, v: [f64; 3]) -> Result<[f64; 3], RenderError> {
-    if v.iter().any(|x| !x.is_finite() || *x < 0.0) {
+    if v.iter()
+        .any(|x| !x.is_finite() || *x < 0.0 || *x > MAX_LIGHT_VALUE)
+    {
         return Err(scene_error(
             origin,
-            format!("{what} {v:?} must be finite and non-negative"),
+            format!("{what} {v:?} must be finite, non-negative and at most {MAX_LIGHT_VALUE:e}"),
+        ));
+    }
+    Ok(v)
+}
+
+/// A reflectance (albedo, diffuse or specular colour): each component in
+/// [0, 1], since above 1 a surface reflects more light than it receives.
+pub(super) fn check_reflectance(
+    origin: &str,
+    what: &str,
+    v: [f64; 3],
+) -> Result<[f64; 3], RenderError> {
+    if v.iter().any(|x| !(0.0..=1.0).contains(x)) {
+        return Err(scene_error(
+            origin,
+            format!(
+                "{what} {v:?} must lie in [0, 1] (a reflectance above 1 reflects more light than arrives)"
+            ),
         ));
     }
     Ok(v)

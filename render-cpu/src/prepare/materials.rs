@@ -1,7 +1,7 @@
 //! Materials and their samplers: loaded, fitted or read from the cache.
 
 use super::cache::{content_hash, Cache, CACHE_VERSION};
-use super::checks::{check_positive, check_rgb, resolve_path, scene_error};
+use super::checks::{check_positive, check_reflectance, resolve_path, scene_error};
 use super::{Action, PrepareLog};
 use crate::description::{MaterialDescription, SamplerKind};
 use crate::error::{io, RenderError};
@@ -217,8 +217,9 @@ impl MaterialBuilder<'_> {
         );
         let start = Instant::now();
         let what = format!("material {name}");
-        let rgb =
-            |v: [f64; 3], w: &str| check_rgb(self.origin, &format!("materials.{name}.{w}"), v);
+        let rgb = |v: [f64; 3], w: &str| {
+            check_reflectance(self.origin, &format!("materials.{name}.{w}"), v)
+        };
         let analytic = |b: Arc<dyn Brdf>| -> Built {
             let description = b.name();
             Built::plain(b, 0, description, key)
