@@ -30,61 +30,14 @@ pub const COLUMNS: [&str; 22] = [
     "note",
 ];
 
-/// One line of `results.csv`: a [`Row`] with the run's thread count and
-/// commit (fields in the order of [`COLUMNS`]).
-#[derive(serde::Serialize, serde::Deserialize)]
-struct Record {
-    instance: String,
-    mode: String,
-    backend: String,
-    rel_tol: f64,
-    size: String,
-    samples: usize,
-    n_p: usize,
-    n_q: usize,
-    status: String,
-    verified: bool,
-    depth: Option<f64>,
-    max_violation: Option<f64>,
-    max_rel_error: Option<f64>,
-    mean_rel_error: Option<f64>,
-    median_s: Option<f64>,
-    min_s: Option<f64>,
-    max_s: Option<f64>,
-    reps: usize,
-    iterations: Option<usize>,
-    threads: usize,
-    commit: String,
-    note: String,
-}
-
 /// Writes the rows with the run's thread count and commit.
 pub fn write_csv(path: &Path, rows: &[Row], threads: usize, commit: &str) -> Result<()> {
     let mut writer = csv::Writer::from_writer(Vec::new());
     for r in rows {
-        writer.serialize(Record {
-            instance: r.instance.clone(),
-            mode: r.mode.clone(),
-            backend: r.backend.clone(),
-            rel_tol: r.rel_tol,
-            size: r.size.clone(),
-            samples: r.samples,
-            n_p: r.n_p,
-            n_q: r.n_q,
-            status: r.status.clone(),
-            verified: r.verified,
-            depth: r.depth,
-            max_violation: r.max_violation,
-            max_rel_error: r.max_rel_error,
-            mean_rel_error: r.mean_rel_error,
-            median_s: r.median_s,
-            min_s: r.min_s,
-            max_s: r.max_s,
-            reps: r.reps,
-            iterations: r.iterations,
+        writer.serialize(Row {
             threads,
             commit: commit.to_string(),
-            note: r.note.clone(),
+            ..r.clone()
         })?;
     }
     let bytes = writer.into_inner().map_err(|e| anyhow::anyhow!("{e}"))?;
@@ -105,34 +58,11 @@ pub fn read_csv(path: &Path) -> Result<Vec<Row>> {
     if header.iter().ne(COLUMNS) {
         bail!("{}: the header is not that of results.csv", path.display());
     }
-    let mut rows = Vec::new();
-    for record in reader.deserialize::<Record>() {
-        // csv's message names the line and the field.
-        let r = record.with_context(|| format!("{}: a malformed row", path.display()))?;
-        rows.push(Row {
-            instance: r.instance,
-            mode: r.mode,
-            backend: r.backend,
-            rel_tol: r.rel_tol,
-            size: r.size,
-            samples: r.samples,
-            n_p: r.n_p,
-            n_q: r.n_q,
-            status: r.status,
-            verified: r.verified,
-            depth: r.depth,
-            max_violation: r.max_violation,
-            max_rel_error: r.max_rel_error,
-            mean_rel_error: r.mean_rel_error,
-            median_s: r.median_s,
-            min_s: r.min_s,
-            max_s: r.max_s,
-            reps: r.reps,
-            iterations: r.iterations,
-            note: r.note,
-        });
-    }
-    Ok(rows)
+    // csv's messages name the line and the field.
+    reader
+        .deserialize::<Row>()
+        .collect::<Result<_, _>>()
+        .with_context(|| format!("{}: a malformed row", path.display()))
 }
 
 /// Relative slack of a verified point's error over its tolerance: the
@@ -236,6 +166,7 @@ mod tests {
             reps: 3,
             iterations: Some(7),
             note: "say \"hi\"".into(),
+            ..Row::default()
         }
     }
 
@@ -263,6 +194,7 @@ mod tests {
         assert_eq!(back[0].instance, "x, with comma");
         assert_eq!(back[0].note, "say \"hi\"");
         assert_eq!(back[0].iterations, Some(7));
+        assert_eq!((back[0].threads, back[0].commit.as_str()), (2, "abc"));
         assert!(check(&dir, &["native"]).unwrap().is_empty());
     }
 

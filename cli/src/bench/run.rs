@@ -13,8 +13,8 @@ use std::collections::HashMap;
 use std::path::Path;
 use std::time::Instant;
 
-/// One line of `results.csv`.
-#[derive(Debug, Clone, Default)]
+/// One line of `results.csv` (fields in the order of its columns).
+#[derive(Debug, Clone, Default, serde::Serialize, serde::Deserialize)]
 pub struct Row {
     /// Instance name.
     pub instance: String,
@@ -54,6 +54,10 @@ pub struct Row {
     pub reps: usize,
     /// Backend iterations of the last run.
     pub iterations: Option<usize>,
+    /// Threads of the run (set when written).
+    pub threads: usize,
+    /// Commit of the run (set when written).
+    pub commit: String,
     /// Why, for skips, errors and rejected points.
     pub note: String,
 }
