@@ -56,4 +56,7 @@ pub use stats::{
     AlbedoEstimate, ChiSquare, Quadrature, SamplerRow,
 };
 pub use table::{luminance, CdfTable, TableSettings, MAX_TABLE_BYTES};
-pub use variance::{fit_table_to_variance, variance_ratio, VarianceStep, VARIANCE_VIEWS_DEG};
+pub use variance::{
+    fit_table_to_variance, variance_ratio, VarianceStep, VARIANCE_HALVINGS, VARIANCE_SAMPLES,
+    VARIANCE_VIEWS_DEG,
+};

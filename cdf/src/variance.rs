@@ -12,6 +12,14 @@ use serde::{Deserialize, Serialize};
 /// View elevations (degrees) at which the variance is compared.
 pub const VARIANCE_VIEWS_DEG: [f64; 4] = [0.0, 30.0, 60.0, 75.0];
 
+/// Samples per view and sampler that `ratfit cdf` gives each estimate of
+/// the ratio: glossy files have heavy-tailed weights, and 50,000 samples
+/// read cc_green_malachite's ratio as 1.14 where 400,000 read 1.52.
+pub const VARIANCE_SAMPLES: usize = 200_000;
+
+/// Halvings of the tolerance that `ratfit cdf` allows.
+pub const VARIANCE_HALVINGS: usize = 4;
+
 /// One fit of [`fit_table_to_variance`].
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct VarianceStep {

@@ -47,6 +47,16 @@ pub fn fraction(s: &str) -> Result<f64, String> {
     }
 }
 
+/// A ratio of variances to stay within: finite and at least 1.
+pub fn ratio(s: &str) -> Result<f64, String> {
+    let v = finite(s)?;
+    if v >= 1.0 {
+        Ok(v)
+    } else {
+        Err(format!("{v} must be at least 1"))
+    }
+}
+
 /// A positive finite number.
 pub fn positive(s: &str) -> Result<f64, String> {
     let v = finite(s)?;

@@ -4,9 +4,9 @@ use std::path::{Path, PathBuf};
 
 use super::RenderOptions;
 
-/// Version of cached files; bump when fits change meaning (3: fits carry
-/// a ceiling on their values).
-pub(super) const CACHE_VERSION: &str = "ratfit-render-cache-3";
+/// Version of cached files; bump when fits change (3: fits carry a ceiling
+/// on their values; 4: azimuth maps fitted to reciprocal intervals).
+pub(super) const CACHE_VERSION: &str = "ratfit-render-cache-4";
 /// FNV-1a, 64 bits: a content key for cache files (the cached file also
 /// stores the full settings, checked on load).
 pub fn content_hash(parts: &[&[u8]]) -> u64 {
