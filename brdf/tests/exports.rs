@@ -481,3 +481,17 @@ fn the_ceiling_bounds_every_evaluation_path() {
         .to_string();
     assert!(e.contains("ceiling"), "{e}");
 }
+
+/// A fit whose f64 coefficients are finite but beyond f32 (1e308) is named
+/// by `first_non_finite`, so the exports refuse it instead of writing `inf`
+/// into a shader or a binary file that would not load.
+#[test]
+fn coefficients_beyond_f32_are_named_before_export() {
+    let f = fits().remove(0);
+    assert_eq!(CompactBrdf::from_fitted(&f).first_non_finite(), None);
+    let mut json = serde_json::to_value(&f).unwrap();
+    json["channels"][2]["numerator"][0] = serde_json::json!(1e308);
+    let huge: FittedBrdf = serde_json::from_value(json).unwrap();
+    let what = CompactBrdf::from_fitted(&huge).first_non_finite();
+    assert_eq!(what.as_deref(), Some("channel b: numerator value 0"));
+}

@@ -324,6 +324,14 @@ fn run_eval(path: &Path, points: Option<PathBuf>, directions: Option<PathBuf>) -
 fn run_export(path: &Path, to: &str, output: Option<PathBuf>) -> Result<()> {
     let fitted = brdf_cmd::read_fitted(path)?;
     let compact = brdf::CompactBrdf::from_fitted(&fitted);
+    if matches!(to, "wgsl" | "glsl" | "binary") {
+        if let Some(what) = compact.first_non_finite() {
+            bail!(
+                "{}: {what} is beyond the f32 range, so the f32 form ({to}) cannot hold this fit",
+                path.display()
+            );
+        }
+    }
     let bytes = match to {
         "wgsl" => brdf::shader::shader_source(&compact, brdf::shader::Language::Wgsl).into_bytes(),
         "glsl" => brdf::shader::shader_source(&compact, brdf::shader::Language::Glsl).into_bytes(),

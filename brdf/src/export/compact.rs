@@ -202,6 +202,39 @@ pub(crate) fn basis_layout(b: &rational_core::Basis) -> (Vec<Vec<u16>>, Vec<usiz
 }
 
 impl CompactBrdf {
+    /// The first value that f32 cannot hold (a finite f64 coefficient
+    /// beyond 3.4e38 becomes infinite), named for an error message; `None`
+    /// when every value is finite. The shaders and the binary format need
+    /// finite values.
+    pub fn first_non_finite(&self) -> Option<String> {
+        let names = self.mode.names();
+        for (c, ch) in self.channels.iter().enumerate() {
+            let name = names.get(c).copied().unwrap_or('?');
+            let parts = [
+                ("numerator", &ch.num),
+                ("denominator", &ch.den),
+                ("domain lower corner", &ch.lower),
+                ("domain upper corner", &ch.upper),
+            ];
+            for (what, values) in parts {
+                if let Some(k) = values.iter().position(|v| !v.is_finite()) {
+                    return Some(format!("channel {name}: {what} value {k}"));
+                }
+            }
+        }
+        let ceiling = self.ceiling.unwrap_or([0.0; 3]);
+        if ceiling.iter().any(|v| !v.is_finite()) {
+            return Some("the ceiling".into());
+        }
+        if let Some(l) = &self.lobe {
+            let values = l.kd_over_pi.iter().chain(&l.f0).chain([&l.alpha]);
+            if values.into_iter().any(|v| !v.is_finite()) {
+                return Some("the lobe".into());
+            }
+        }
+        None
+    }
+
     /// The f32 form of a fit.
     pub fn from_fitted(f: &FittedBrdf) -> Self {
         let channels = f
