@@ -336,7 +336,20 @@ fn run_export(path: &Path, to: &str, output: Option<PathBuf>) -> Result<()> {
         "wgsl" => brdf::shader::shader_source(&compact, brdf::shader::Language::Wgsl).into_bytes(),
         "glsl" => brdf::shader::shader_source(&compact, brdf::shader::Language::Glsl).into_bytes(),
         "binary" => compact.to_bytes(),
-        "alta" => brdf::AltaRational::from_fitted(&fitted)?
+        "alta" => brdf::AltaRational::from_fitted(&fitted)
+            .map_err(|e| {
+                // The library names no flag; the way out, in `ratfit fit`'s.
+                let hint = if fitted.lobe.is_some() {
+                    " (`ratfit fit` without --lobe)"
+                } else if !fitted.mode.is_rgb() {
+                    " (`ratfit fit --colour rgb`)"
+                } else if fitted.reduction.coordinates != brdf::Coordinates::Radians {
+                    " (`ratfit fit --coords radians`)"
+                } else {
+                    ""
+                };
+                anyhow::anyhow!("{}: {e}{hint}", path.display())
+            })?
             .to_text(&format!("ratfit export {} --to alta", path.display()))
             .into_bytes(),
         other => bail!("unknown export `{other}` (wgsl, glsl, alta, binary)"),

@@ -99,7 +99,7 @@ impl AltaRational {
         if fit.lobe.is_some() {
             return Err(BrdfError::Invalid {
                 name: "ALTA export",
-                reason: "ALTA rational functions hold p / q alone; this fit multiplies them by an analytic lobe (export the binary, WGSL or GLSL form, or refit without --lobe)".into(),
+                reason: "ALTA rational functions hold p / q alone; this fit multiplies them by an analytic lobe (export the binary, WGSL or GLSL form, or refit without the lobe)".into(),
             });
         }
         if !fit.mode.is_rgb() {
@@ -112,7 +112,7 @@ impl AltaRational {
             return Err(BrdfError::Invalid {
                 name: "ALTA export",
                 reason: format!(
-                    "ALTA has no parametrisation for {:?} coordinates; fit with radians (`--coords radians`)",
+                    "ALTA has no parametrisation for {:?} coordinates; refit in radians",
                     fit.reduction.coordinates
                 ),
             });
