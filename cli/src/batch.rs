@@ -323,7 +323,7 @@ pub fn run_batch(args: BatchArgs) -> Result<()> {
     for &k in &mine {
         let e = &entries[k];
         let outcome = match e.key() {
-            Err(err) => Outcome::Failed(format!("{err:#}")),
+            Err(err) => Outcome::Failed(crate::output::chain_text(&err)),
             Ok(key) => {
                 let path = e.output(&args.out, key);
                 if is_done(&path, key) {
@@ -336,7 +336,7 @@ pub fn run_batch(args: BatchArgs) -> Result<()> {
                             println!("{}: wrote {} ({s:.1} s)", e.name, path.display());
                             Outcome::Fitted
                         }
-                        Err(err) => Outcome::Failed(format!("{err:#}")),
+                        Err(err) => Outcome::Failed(crate::output::chain_text(&err)),
                     }
                 }
             }

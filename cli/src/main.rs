@@ -402,32 +402,17 @@ fn main() {
     };
     progress::finish();
     if interrupt::requested() {
-        eprintln!("interrupted: {}; no output written", chain_text(&e));
+        eprintln!(
+            "interrupted: {}; the interrupted fit wrote nothing",
+            output::chain_text(&e)
+        );
         std::process::exit(interrupt::EXIT_INTERRUPTED);
     }
-    eprintln!("error: {}", chain_text(&e));
+    eprintln!("error: {}", output::chain_text(&e));
     if let Some(hint) = flag_hint(&e) {
         eprintln!("  ({hint})");
     }
     std::process::exit(1);
-}
-
-/// The error and its causes on one line, each cause once: library errors
-/// often repeat their source in their own message, and that copy is not
-/// printed again.
-fn chain_text(e: &anyhow::Error) -> String {
-    let mut text = String::new();
-    for cause in e.chain() {
-        let message = cause.to_string();
-        if text.ends_with(&message) {
-            continue;
-        }
-        if !text.is_empty() {
-            text += ": ";
-        }
-        text += &message;
-    }
-    text
 }
 
 /// The library's "no feasible fit" names no flag; the CLI adds its own.

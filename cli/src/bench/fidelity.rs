@@ -586,7 +586,7 @@ fn measure_material(judge: &Judge) -> Result<Vec<Row>> {
                 )?;
                 material_rows.push(row);
             }
-            Err(e) => println!("  {name:<46} no fit: {e:#}"),
+            Err(e) => println!("  {name:<46} no fit: {}", crate::output::chain_text(&e)),
         }
     }
     // The analytic peer.

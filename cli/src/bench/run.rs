@@ -145,13 +145,13 @@ pub fn run(file: &InstanceFile, opts: &RunOptions) -> Vec<Row> {
     for inst in file.instances.iter().filter(|i| i.quick || !opts.quick) {
         // Rows of the sizes that ran are kept; the error ends the instance.
         if let Err(e) = run_instance(inst, file, opts, &mut rows) {
-            println!("{:<24} error: {e:#}", inst.name);
+            println!("{:<24} error: {}", inst.name, crate::output::chain_text(&e));
             rows.push(Row {
                 instance: inst.name.clone(),
                 mode: "split".into(),
                 backend: "-".into(),
                 status: "error".into(),
-                note: format!("{e:#}"),
+                note: crate::output::chain_text(&e),
                 ..Row::default()
             });
         }
