@@ -244,25 +244,21 @@ pub fn run_stats(args: StatsArgs) -> Result<()> {
     let tabulated = TabulatedSampler::new(table);
     let rational = RationalSampler::new(file.cdf);
     let samplers: [&dyn Sampler; 3] = [&CosineSampler, &tabulated, &rational];
-    // One estimate at a time, so that long runs (up to 1e10 samples) show
-    // where they are.
-    let bar = crate::progress::count_bar("estimates");
-    let total = views.len() * samplers.len();
-    let mut rows = Vec::with_capacity(total);
-    for &view in &views {
-        for sampler in samplers {
-            bar(rows.len(), total);
-            let one = [sampler];
-            rows.extend(compare_samplers(
-                material.as_ref(),
-                &one,
-                &[view],
-                args.samples,
-                args.seed,
-            ));
-        }
+    // One view at a time (its quadrature once, every sampler), so that long
+    // runs (up to 1e10 samples) show where they are.
+    let bar = crate::progress::count_bar("views");
+    let mut rows = Vec::with_capacity(views.len() * samplers.len());
+    for (k, &view) in views.iter().enumerate() {
+        bar(k, views.len());
+        rows.extend(compare_samplers(
+            material.as_ref(),
+            &samplers,
+            &[view],
+            args.samples,
+            args.seed,
+        ));
     }
-    bar(total, total);
+    bar(views.len(), views.len());
     println!(
         "{}: {} samples per estimate; variance of one sample of rho cos / pdf per channel",
         material.name(),

@@ -6,6 +6,12 @@ use std::io::{IsTerminal, Write};
 use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
+/// A 30-character bar, `done` of `total` filled.
+fn bar(done: usize, total: usize) -> String {
+    let filled = (30 * done / total.max(1)).min(30);
+    format!("{}{}", "#".repeat(filled), " ".repeat(30 - filled))
+}
+
 /// A progress callback for sweeps, or `None` when stderr is not a terminal.
 pub fn sweep_bar() -> Option<ProgressFn> {
     if !std::io::stderr().is_terminal() {
@@ -19,13 +25,10 @@ pub fn sweep_bar() -> Option<ProgressFn> {
             return;
         }
         *l = Instant::now();
-        let width = 30;
-        let filled = width * p.done / p.total.max(1);
         eprint!(
-            "\r  budget {:>3} [{}{}] {:>3}/{:<3} splits  {:>6.1} s ",
+            "\r  budget {:>3} [{}] {:>3}/{:<3} splits  {:>6.1} s ",
             p.budget,
-            "#".repeat(filled),
-            " ".repeat(width - filled),
+            bar(p.done, p.total),
             p.done,
             p.total,
             start.elapsed().as_secs_f64()
@@ -76,12 +79,9 @@ pub fn count_bar(what: &'static str) -> impl Fn(usize, usize) + Sync {
         if !tty {
             return;
         }
-        let width = 30;
-        let filled = width * done / total.max(1);
         eprint!(
-            "\r  {what} [{}{}] {done:>4}/{total:<4} {:>7.1} s ",
-            "#".repeat(filled),
-            " ".repeat(width - filled),
+            "\r  {what} [{}] {done:>4}/{total:<4} {:>7.1} s ",
+            bar(done, total),
             start.elapsed().as_secs_f64()
         );
         std::io::stderr().flush().ok();
