@@ -86,8 +86,13 @@ impl SolveOptions {
         Ok(self)
     }
 
-    /// Rows (for example a previous active set) that seed the native solver's
-    /// working set.
+    /// Rows (for example the active set of a neighbouring problem) that the
+    /// native solver starts from: they seed its working set, and the dual
+    /// method starts at the least-norm point of those that stay active with
+    /// non-negative multipliers instead of at `x = 0`. A hint only: the
+    /// optimum is the same with any rows (out-of-range ones are ignored),
+    /// and a good guess saves most of the iterations. Other backends ignore
+    /// it.
     pub fn with_warm_start(mut self, rows: Vec<usize>) -> Self {
         self.warm_start = rows;
         self

@@ -178,12 +178,17 @@ impl<'a> Prepared<'a> {
         Ok(())
     }
 
+    /// Solves P(n_p, n_q) with its pole rounds. `active` is a warm start on
+    /// entry (the active data rows of a neighbouring split; a hint that
+    /// saves iterations and changes no optimum) and holds this split's
+    /// active data rows on return.
     fn solve(
         &self,
         data: &IntervalData,
         n_p: usize,
         n_q: usize,
         want_condition: bool,
+        active: &mut Vec<usize>,
     ) -> Result<SplitFit, FitError> {
         self.start_split()?;
         let start = Instant::now();
@@ -195,7 +200,7 @@ impl<'a> Prepared<'a> {
             grid_min_q: None,
             certified: None,
         };
-        let mut warm = Vec::new();
+        let mut warm = std::mem::take(active);
         // Each exit of the loop names the outcome; the timing and the result
         // are assembled once below.
         let (function, verification) = loop {
@@ -205,6 +210,9 @@ impl<'a> Prepared<'a> {
                 options = options.with_cancel(CancelFlag::new(flag.clone()));
             }
             let sol = self.settings.backend.solve(&problem, &options)?;
+            let data_rows = 2 * data.len();
+            active.clear();
+            active.extend(sol.active_set.iter().copied().filter(|&j| j < data_rows));
             if sol.status == Status::Cancelled {
                 return Err(FitError::Cancelled {
                     splits_tried: self.solved.load(Ordering::Relaxed),
@@ -347,7 +355,7 @@ pub fn fit_split_with_constraints(
         });
     }
     let prep = Prepared::new(data, settings, extra, n_p.max(n_q))?;
-    prep.solve(data, n_p, n_q, true)
+    prep.solve(data, n_p, n_q, true, &mut Vec::new())
 }
 
 /// The P(n_p, n_q) instance that [`fit_split`] solves first, for
@@ -481,7 +489,7 @@ fn exhaustive(
         let fits: Vec<SplitFit> = splits
             .par_iter()
             .map(|&(np, nq)| {
-                let r = prep.solve(data, np, nq, want_condition);
+                let r = prep.solve(data, np, nq, want_condition, &mut Vec::new());
                 let k = done.fetch_add(1, Ordering::Relaxed) + 1;
                 if let Some(cb) = &settings.progress {
                     cb(Progress {
@@ -548,8 +556,11 @@ fn staircase_within(
     let mut best: Vec<SplitFit> = Vec::new();
     // Smallest accepted n_p of the last column that had one.
     let mut p_bound = limit - 1;
+    // Each split starts from the active set of the one solved before it:
+    // the walk moves one column or one bisection step at a time.
+    let mut active = Vec::new();
     let mut solve = |np: usize, nq: usize| -> Result<SplitFit, FitError> {
-        let f = prep.solve(data, np, nq, want_condition)?;
+        let f = prep.solve(data, np, nq, want_condition, &mut active)?;
         summaries.push(f.summary.clone());
         if let Some(cb) = &settings.progress {
             cb(Progress {

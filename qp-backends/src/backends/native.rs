@@ -224,6 +224,48 @@ impl DualActiveSet {
         }
     }
 
+    /// Starts the dual method from the given working-set rows instead of
+    /// `x = 0`: the rows are factorised in order (skipping any nearly
+    /// dependent on those before), the least-norm point of them as
+    /// equalities is computed, and rows with a negative multiplier are
+    /// dropped, most negative first, until every multiplier is
+    /// non-negative. The point is then the optimum of the program restricted
+    /// to the active rows, the dual method's invariant, so the iterations
+    /// that follow reach the same optimum as a cold start; a good guess (the
+    /// active set of a neighbouring problem) leaves few of them.
+    fn start_from(&mut self, ws: &WorkingSet, rows: &[usize], is_active: &mut Vec<bool>) {
+        // Looser than `dep_tol`: a row of another problem's active set that
+        // is almost dependent here would only make `R` ill-conditioned.
+        const WARM_DEPENDENCY: f64 = 1e-8;
+        is_active.resize(ws.len(), false);
+        for &k in rows {
+            if self.q == self.n {
+                break;
+            }
+            if is_active[k] {
+                continue;
+            }
+            let np = ws.row(k).to_vec();
+            if self.directions(&np) <= WARM_DEPENDENCY.max(self.dep_tol) {
+                continue;
+            }
+            self.add_column();
+            self.active.push(k);
+            self.u.push(0.0);
+            is_active[k] = true;
+        }
+        while self.q > 0 {
+            self.recompute_point(ws);
+            let negative = (0..self.q)
+                .filter(|&i| self.u[i] < 0.0)
+                .min_by(|&a, &b| self.u[a].total_cmp(&self.u[b]));
+            let Some(pos) = negative else { return };
+            is_active[self.active[pos]] = false;
+            self.drop_column(pos);
+        }
+        self.x.iter_mut().for_each(|v| *v = 0.0);
+    }
+
     /// Partial step: the step at which the first active multiplier reaches
     /// zero along the dual direction, and its position; infinite and `None`
     /// when no multiplier decreases.
@@ -503,6 +545,19 @@ fn solve_native(problem: &LdpProblem, options: &SolveOptions) -> Solution {
         options.max_iterations_for(n),
     );
     let mut is_active = Vec::new();
+    if !options.warm_start.is_empty() {
+        let mut position = vec![usize::MAX; m];
+        for (k, &j) in ws.global.iter().enumerate() {
+            position[j] = k;
+        }
+        let warm: Vec<usize> = options
+            .warm_start
+            .iter()
+            .filter(|&&j| j < m && position[j] != usize::MAX)
+            .map(|&j| position[j])
+            .collect();
+        state.start_from(&ws, &warm, &mut is_active);
+    }
     let status = loop {
         match state.solve(&ws, &mut is_active, options) {
             InnerEnd::Infeasible => break Status::Infeasible,
