@@ -383,7 +383,7 @@ fn run_dump_qp(data: DataArgs, basis: BasisFamily, split: &str, out: &Path) -> R
         .with_value_scaling(false);
     let p = split_problem(&d, np, nq, &settings)?;
     std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
-    npy::write_f64(&out.join("G.npy"), &[p.rows(), p.cols()], p.g())?;
+    npy::write_f64(&out.join("G.npy"), &[p.rows(), p.cols()], &p.g())?;
     npy::write_f64(&out.join("h.npy"), &[p.rows()], p.h())?;
     println!(
         "wrote {}/G.npy ({} x {}) and h.npy: minimise ||c||^2 s.t. G c >= h, c = (a[0..{np}], b[0..{nq}]), {basis} basis on the data's bounding box",

@@ -1,7 +1,7 @@
 //! What a solve returns: the backend's status, the point, and residuals
 //! measured by our own code.
 
-use crate::problem::{dot, norm};
+use crate::problem::norm;
 use crate::tolerance::rounding_tolerance;
 use crate::LdpProblem;
 
@@ -73,11 +73,18 @@ impl Residuals {
             satisfied: x.iter().all(|v| v.is_finite()),
         };
         let mut worst = f64::NEG_INFINITY;
+        if x.len() != problem.cols() {
+            r.satisfied = false;
+            r.max_violation = f64::INFINITY;
+            return r;
+        }
+        let mut products = vec![0.0; problem.rows()];
+        problem.products(x, &mut products);
+        let norms = problem.row_norms();
         for j in 0..problem.rows() {
-            let row = problem.row(j);
-            let gx = dot(row, x);
+            let gx = products[j];
             let h = problem.h()[j];
-            let nrm = norm(row);
+            let nrm = norms[j];
             if nrm == 0.0 {
                 if h > 0.0 {
                     r.satisfied = false;

@@ -409,3 +409,117 @@ fn a_set_cancel_flag_stops_every_backend() {
     assert_eq!(s.status, Status::Solved);
     assert!(rel_err(&s.x, &[1.0, 1.0]) < 1e-12);
 }
+
+/// An interval fit's rows generated from its design matrix: `lo_i <=
+/// p(t_i) / q(t_i) <= hi_i` for `exp(t)` on [-1, 1] with monomials.
+fn interval_problem(
+    samples: usize,
+    (n_p, n_q): (usize, usize),
+    rel: f64,
+    extra: &[Vec<f64>],
+) -> LdpProblem {
+    let width = n_p.max(n_q) + 1;
+    let mut design = Vec::new();
+    let (mut lo, mut hi) = (Vec::new(), Vec::new());
+    for i in 0..samples {
+        let t = -1.0 + 2.0 * i as f64 / (samples - 1) as f64;
+        design.extend((0..width).map(|k| t.powi(k as i32)));
+        lo.push(t.exp() * (1.0 - rel));
+        hi.push(t.exp() * (1.0 + rel));
+    }
+    LdpProblem::from_intervals(design.into(), width, (n_p, n_q), lo, hi, extra).unwrap()
+}
+
+#[test]
+fn generated_rows_solve_as_their_dense_matrix_on_every_backend() {
+    let extra = vec![vec![0.0, 0.0, 0.0, 1.0, 0.5]];
+    for (rel, feasible) in [(1e-2, true), (1e-6, false)] {
+        let generated = interval_problem(400, (3, 2), rel, &extra);
+        assert_eq!(generated.rows(), 801);
+        let dense = LdpProblem::new(generated.g().into_owned(), generated.h().to_vec(), 5).unwrap();
+        // The rows are unit rows, and G x agrees with the stored matrix.
+        // (the extra row is used as given).
+        let norms = generated.row_norms();
+        for (j, n) in norms[..800].iter().enumerate() {
+            assert!((n - 1.0).abs() < 1e-15, "row {j}: {n}");
+        }
+        assert!((norms[800] - 1.25f64.sqrt()).abs() < 1e-15);
+        let x = [0.3, -1.0, 2.0, 0.5, -0.25];
+        let (mut a, mut b) = (vec![0.0; 801], vec![0.0; 801]);
+        generated.products(&x, &mut a);
+        dense.products(&x, &mut b);
+        assert!(a
+            .iter()
+            .zip(&b)
+            .all(|(u, v)| (u - v).abs() <= 1e-14 * (1.0 + v.abs())));
+        for backend in Backend::available() {
+            let g = solve(backend, &generated);
+            let d = solve(backend, &dense);
+            if backend == Backend::Native {
+                assert_eq!(g.status, d.status, "{backend} rel {rel}");
+                assert_eq!(
+                    g.is_verified(),
+                    feasible,
+                    "{backend} rel {rel}: {:?}",
+                    g.residuals
+                );
+            }
+            if !feasible {
+                // Rounding-level differences may change an LP or ADMM
+                // backend's status, never into a verified point.
+                assert!(!g.is_verified() && !d.is_verified(), "{backend} rel {rel}");
+            }
+            if g.is_verified() && d.is_verified() && optimum_accuracy(backend, 5, 1.0).is_some() {
+                let tol = if backend == Backend::Native {
+                    1e-8
+                } else {
+                    1e-3
+                };
+                assert!(
+                    rel_err(&g.x, &d.x) < tol,
+                    "{backend}: {:?} vs {:?}",
+                    g.x,
+                    d.x
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn interval_problems_refuse_bad_sizes_and_values() {
+    let design: std::sync::Arc<[f64]> = vec![1.0, 0.5, 1.0, -0.5].into();
+    let ok = |lo: f64| {
+        LdpProblem::from_intervals(
+            design.clone(),
+            2,
+            (1, 1),
+            vec![lo, 1.0],
+            vec![2.0, 2.0],
+            &[],
+        )
+    };
+    assert!(ok(0.5).is_ok());
+    assert!(ok(f64::NAN).is_err());
+    assert!(
+        LdpProblem::from_intervals(design.clone(), 2, (3, 1), vec![1.0; 2], vec![2.0; 2], &[])
+            .is_err()
+    );
+    assert!(
+        LdpProblem::from_intervals(design.clone(), 2, (1, 0), vec![1.0; 2], vec![2.0; 2], &[])
+            .is_err()
+    );
+    assert!(
+        LdpProblem::from_intervals(design.clone(), 2, (1, 1), vec![1.0; 3], vec![2.0; 3], &[])
+            .is_err()
+    );
+    assert!(LdpProblem::from_intervals(
+        design,
+        2,
+        (1, 1),
+        vec![1.0; 2],
+        vec![2.0; 2],
+        &[vec![1.0]]
+    )
+    .is_err());
+}

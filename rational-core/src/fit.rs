@@ -13,11 +13,14 @@ use crate::{
 use qp_backends::{CancelFlag, LdpProblem, Status};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicUsize, Ordering};
-use std::sync::Mutex;
+use std::sync::RwLock;
 use std::time::Instant;
 
 /// Dense-grid rounds before a split with poles between samples is rejected.
 const MAX_POLE_ROUNDS: usize = 6;
+
+/// Basis functions evaluated at the samples before any split asks for more.
+const INITIAL_DESIGN_WIDTH: usize = 16;
 
 /// One solved split, accepted or not.
 #[derive(Debug, Clone)]
@@ -36,41 +39,17 @@ pub struct SplitFit {
 /// Everything the splits of a sweep share.
 struct Prepared<'a> {
     basis: Basis,
-    design: DesignMatrix,
+    /// Basis values at the samples, as many functions as the widest split
+    /// so far needed (grown by doubling): a search whose answer is small
+    /// never evaluates, nor stores, the whole basis.
+    design: RwLock<DesignMatrix>,
     data: &'a IntervalData,
     settings: &'a FitSettings,
     extra: &'a dyn ExtraConstraints,
     /// Bounds are divided by this in P(n_p, n_q); the numerator is scaled back.
     scale: f64,
-    /// Storage of solved problems' `G`, reused by the next ones.
-    spare: Mutex<Vec<Vec<f64>>>,
     /// Splits started, reported when the sweep is cancelled.
     solved: AtomicUsize,
-}
-
-/// A problem whose `G` storage goes back to [`Prepared::spare`] when dropped.
-struct PooledProblem<'a> {
-    problem: Option<LdpProblem>,
-    spare: &'a Mutex<Vec<Vec<f64>>>,
-}
-
-impl std::ops::Deref for PooledProblem<'_> {
-    type Target = LdpProblem;
-    fn deref(&self) -> &LdpProblem {
-        self.problem.as_ref().expect("present until dropped")
-    }
-}
-
-impl Drop for PooledProblem<'_> {
-    fn drop(&mut self) {
-        if let Some(p) = self.problem.take() {
-            let mut spare = self.spare.lock().unwrap_or_else(|e| e.into_inner());
-            // One buffer per concurrent solve is all the sweep can use.
-            if spare.len() < rayon::current_num_threads() {
-                spare.push(p.into_parts().0);
-            }
-        }
-    }
 }
 
 impl<'a> Prepared<'a> {
@@ -95,7 +74,10 @@ impl<'a> Prepared<'a> {
             Some(w) => Basis::weighted(settings.family, domain, len, w)?,
             None => Basis::new(settings.family, domain, len)?,
         };
-        let design = DesignMatrix::new(&basis, data);
+        let design = RwLock::new(DesignMatrix::new(
+            &basis.with_len(INITIAL_DESIGN_WIDTH.min(len))?,
+            data,
+        ));
         let scale = if settings.value_scaling {
             data.value_scale()
         } else {
@@ -108,7 +90,6 @@ impl<'a> Prepared<'a> {
             settings,
             extra,
             scale,
-            spare: Mutex::new(Vec::new()),
             solved: AtomicUsize::new(0),
         })
     }
@@ -133,19 +114,26 @@ impl<'a> Prepared<'a> {
         n_p: usize,
         n_q: usize,
         rows: &[Vec<f64>],
-    ) -> Result<PooledProblem<'_>, FitError> {
+    ) -> Result<LdpProblem, FitError> {
         debug_assert_eq!(data.len(), self.data.len());
-        let buffer = {
-            let mut spare = self.spare.lock().unwrap_or_else(|e| e.into_inner());
-            // The largest buffer: it needs no growing for the biggest split.
-            let largest = (0..spare.len()).max_by_key(|&k| spare[k].capacity());
-            largest.map(|k| spare.swap_remove(k)).unwrap_or_default()
-        };
-        let problem = build_problem_in(&self.design, data, n_p, n_q, rows, self.scale, buffer)?;
-        Ok(PooledProblem {
-            problem: Some(problem),
-            spare: &self.spare,
-        })
+        let design = self.design_of_width(n_p.max(n_q))?;
+        build_problem_in(&design, data, n_p, n_q, rows, self.scale)
+    }
+
+    /// The design matrix with at least `width` functions (a shared handle).
+    fn design_of_width(&self, width: usize) -> Result<DesignMatrix, FitError> {
+        {
+            let design = self.design.read().unwrap_or_else(|e| e.into_inner());
+            if design.cols() >= width {
+                return Ok(design.clone());
+            }
+        }
+        let mut design = self.design.write().unwrap_or_else(|e| e.into_inner());
+        if design.cols() < width {
+            let grown = (2 * design.cols()).max(width).min(self.basis.len());
+            *design = DesignMatrix::new(&self.basis.with_len(grown)?, self.data);
+        }
+        Ok(design.clone())
     }
 
     /// The rational function of a solution vector `(a, b)` (numerator
@@ -377,8 +365,7 @@ pub fn split_problem(
     }
     let prep = Prepared::new(data, settings, &NoExtraConstraints, n_p.max(n_q).max(1))?;
     let rows = prep.base_rows(n_p, n_q);
-    let mut pooled = prep.problem(data, n_p, n_q, &rows)?;
-    Ok(pooled.problem.take().expect("just built"))
+    prep.problem(data, n_p, n_q, &rows)
 }
 
 /// Fits `data` by the sweep: by default, for each budget `N` from the

@@ -4,13 +4,15 @@
 use crate::{Basis, FitError, IntervalData};
 use qp_backends::LdpProblem;
 use rayon::prelude::*;
+use std::sync::Arc;
 
 /// Basis values at every sample (`samples x cols`, row-major), computed once
-/// and shared by every split of a sweep.
+/// and shared by every split of a sweep: the problems of the splits generate
+/// their rows from it instead of storing them.
 #[derive(Debug, Clone)]
 pub struct DesignMatrix {
     cols: usize,
-    values: Vec<f64>,
+    values: Arc<[f64]>,
 }
 
 impl DesignMatrix {
@@ -22,7 +24,10 @@ impl DesignMatrix {
             .par_chunks_mut(cols)
             .enumerate()
             .for_each(|(i, row)| basis.eval_into(data.point(i), row));
-        Self { cols, values }
+        Self {
+            cols,
+            values: values.into(),
+        }
     }
 
     /// Values at sample `i`.
@@ -85,12 +90,11 @@ pub fn build_problem_scaled(
     extra: &[Vec<f64>],
     value_scale: f64,
 ) -> Result<LdpProblem, FitError> {
-    build_problem_in(design, data, n_p, n_q, extra, value_scale, Vec::new())
+    build_problem_in(design, data, n_p, n_q, extra, value_scale)
 }
 
-/// As [`build_problem_scaled`], writing `G` into `buffer`'s storage: the
-/// sweep reuses one allocation per thread instead of mapping fresh pages for
-/// every split (gigabytes per split on the full MERL grid).
+/// As [`build_problem_scaled`]; the rows are generated from `design` by the
+/// solver (`LdpProblem::from_intervals`), so no split stores its `G`.
 pub(crate) fn build_problem_in(
     design: &DesignMatrix,
     data: &IntervalData,
@@ -98,7 +102,6 @@ pub(crate) fn build_problem_in(
     n_q: usize,
     extra: &[Vec<f64>],
     value_scale: f64,
-    mut buffer: Vec<f64>,
 ) -> Result<LdpProblem, FitError> {
     if !(value_scale.is_finite() && value_scale > 0.0) {
         return Err(FitError::InvalidSetting {
@@ -122,37 +125,26 @@ pub(crate) fn build_problem_in(
             r.len()
         )));
     }
-    let s = data.len();
-    buffer.clear();
-    buffer.resize((2 * s + extra.len()) * n, 0.0);
-    let mut g = buffer;
-    g[..2 * s * n]
-        .par_chunks_mut(2 * n)
-        .enumerate()
-        .for_each(|(i, pair)| {
-            let phi = design.row(i);
-            // Divide (not multiply by the inverse): 1/scale overflows for subnormal data.
-            let (lo, hi) = (data.lo()[i] / value_scale, data.hi()[i] / value_scale);
-            let (r1, r2) = pair.split_at_mut(n);
-            for k in 0..n_p {
-                r1[k] = phi[k];
-                r2[k] = -phi[k];
-            }
-            for k in 0..n_q {
-                r1[n_p + k] = -lo * phi[k];
-                r2[n_p + k] = hi * phi[k];
-            }
-            normalise(r1);
-            normalise(r2);
-        });
-    for (j, row) in extra.iter().enumerate() {
-        let dst = &mut g[(2 * s + j) * n..(2 * s + j + 1) * n];
-        dst.copy_from_slice(row);
-        dst[..n_p].iter_mut().for_each(|v| *v *= value_scale);
-        normalise(dst);
-    }
-    let h = vec![1.0; 2 * s + extra.len()];
-    Ok(LdpProblem::new(g, h, n)?)
+    // Divide (not multiply by the inverse): 1/scale overflows for subnormal data.
+    let lo = data.lo().iter().map(|v| v / value_scale).collect();
+    let hi = data.hi().iter().map(|v| v / value_scale).collect();
+    let extra: Vec<Vec<f64>> = extra
+        .iter()
+        .map(|row| {
+            let mut r = row.clone();
+            r[..n_p].iter_mut().for_each(|v| *v *= value_scale);
+            normalise(&mut r);
+            r
+        })
+        .collect();
+    Ok(LdpProblem::from_intervals(
+        design.values.clone(),
+        design.cols(),
+        (n_p, n_q),
+        lo,
+        hi,
+        &extra,
+    )?)
 }
 
 fn normalise(row: &mut [f64]) {
@@ -176,7 +168,8 @@ pub fn condition_number(problem: &LdpProblem) -> f64 {
     if m < n {
         return f64::INFINITY;
     }
-    let g = faer::MatRef::from_row_major_slice(problem.g(), m, n);
+    let g = problem.g();
+    let g = faer::MatRef::from_row_major_slice(&g, m, n);
     let qr = g.qr();
     let r = qr.thin_R().to_owned();
     match r.singular_values() {

@@ -30,9 +30,11 @@ impl LdpSolver for ClarabelSolver {
         let mut rowval = Vec::with_capacity(m * n);
         let mut nzval = Vec::with_capacity(m * n);
         colptr.push(0);
+        // The dense matrix, built once when the rows are generated.
+        let g = problem.g();
         for k in 0..n {
             for j in 0..m {
-                let v = problem.row(j)[k];
+                let v = g[j * n + k];
                 if v != 0.0 {
                     rowval.push(j);
                     nzval.push(-v * inv[j]);

@@ -44,6 +44,8 @@ impl LdpSolver for GoodLpSolver {
         let s = vars.add(variable().min(0.0).max(1.0));
         let t = vars.add(variable().max(1.0));
         let mut model = vars.maximise(t).using(good_lp::microlp);
+        let g = problem.g();
+        let row = |j: usize| &g[j * n..(j + 1) * n];
         for j in 0..m {
             if norms[j] == 0.0 {
                 if problem.h()[j] > 0.0 {
@@ -54,7 +56,7 @@ impl LdpSolver for GoodLpSolver {
             let inv = 1.0 / norms[j];
             let mut e = Expression::with_capacity(n + 2);
             for (k, yk) in y.iter().enumerate() {
-                e.add_mul(problem.row(j)[k] * inv, *yk);
+                e.add_mul(row(j)[k] * inv, *yk);
             }
             e.add_mul(-problem.h()[j] * inv, s);
             e.add_mul(-1.0, t);
@@ -82,7 +84,7 @@ impl LdpSolver for GoodLpSolver {
             // A recession direction: scale until every row with h > 0 holds.
             let k = (0..m)
                 .filter(|&j| problem.h()[j] > 0.0)
-                .map(|j| problem.h()[j] / dot(problem.row(j), &yv))
+                .map(|j| problem.h()[j] / dot(row(j), &yv))
                 .fold(1.0_f64, f64::max);
             yv.iter().map(|v| v * k).collect()
         };

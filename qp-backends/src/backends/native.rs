@@ -18,7 +18,6 @@
 use crate::problem::{dot, matvec, matvec_col_major, norm};
 use crate::tolerance::rounding_tolerance;
 use crate::{Error, LdpProblem, LdpSolver, Solution, SolveOptions, Status};
-use rayon::prelude::*;
 
 /// The always-compiled default backend.
 #[derive(Debug, Clone, Copy, Default)]
@@ -458,30 +457,16 @@ fn polish(ws: &WorkingSet, active: &[usize], n: usize) -> Option<Vec<f64>> {
 
 /// Largest normalised violation relative to the rounding tolerance scale.
 fn worst_violation(problem: &LdpProblem, inv_norm: &[f64], x: &[f64], parallel: bool) -> f64 {
-    let cols = problem.cols();
     let norm_x = norm(x);
-    let f = |(j, row): (usize, &[f64])| {
-        if inv_norm[j] == 0.0 {
-            return f64::NEG_INFINITY;
-        }
-        let hn = problem.h()[j] * inv_norm[j];
-        (hn - dot(row, x) * inv_norm[j]) / (hn.abs() + norm_x)
-    };
-    if parallel {
-        problem
-            .g()
-            .par_chunks_exact(cols)
-            .enumerate()
-            .map(f)
-            .reduce(|| f64::NEG_INFINITY, f64::max)
-    } else {
-        problem
-            .g()
-            .chunks_exact(cols)
-            .enumerate()
-            .map(f)
-            .fold(f64::NEG_INFINITY, f64::max)
-    }
+    let mut gx = vec![0.0; problem.rows()];
+    problem.products_on(x, &mut gx, parallel);
+    (0..problem.rows())
+        .filter(|&j| inv_norm[j] != 0.0)
+        .map(|j| {
+            let hn = problem.h()[j] * inv_norm[j];
+            (hn - gx[j] * inv_norm[j]) / (hn.abs() + norm_x)
+        })
+        .fold(f64::NEG_INFINITY, f64::max)
 }
 
 fn solve_native(problem: &LdpProblem, options: &SolveOptions) -> Solution {
@@ -612,31 +597,19 @@ fn violated_rows(
     tol: f64,
     parallel: bool,
 ) -> Vec<(f64, usize)> {
-    let n = problem.cols();
     let norm_x = norm(x);
-    let check = |(j, row): (usize, &[f64])| -> Option<(f64, usize)> {
-        if in_ws[j] || inv_norm[j] == 0.0 {
-            return None;
-        }
-        let hn = problem.h()[j] * inv_norm[j];
-        let s = dot(row, x) * inv_norm[j] - hn;
-        (s < -tol * (hn.abs() + norm_x)).then_some((s, j))
-    };
-    if parallel {
-        problem
-            .g()
-            .par_chunks_exact(n)
-            .enumerate()
-            .filter_map(check)
-            .collect()
-    } else {
-        problem
-            .g()
-            .chunks_exact(n)
-            .enumerate()
-            .filter_map(check)
-            .collect()
-    }
+    let mut gx = vec![0.0; problem.rows()];
+    problem.products_on(x, &mut gx, parallel);
+    (0..problem.rows())
+        .filter_map(|j| {
+            if in_ws[j] || inv_norm[j] == 0.0 {
+                return None;
+            }
+            let hn = problem.h()[j] * inv_norm[j];
+            let s = gx[j] * inv_norm[j] - hn;
+            (s < -tol * (hn.abs() + norm_x)).then_some((s, j))
+        })
+        .collect()
 }
 
 /// The solved point, polished on its active set when that does not worsen

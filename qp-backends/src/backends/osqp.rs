@@ -32,9 +32,11 @@ impl LdpSolver for OsqpSolver {
         let mut indptr = vec![0];
         let mut indices = Vec::with_capacity(m * n);
         let mut data = Vec::with_capacity(m * n);
+        // The dense matrix, built once when the rows are generated.
+        let g = problem.g();
         for k in 0..n {
             for j in 0..m {
-                let v = problem.row(j)[k];
+                let v = g[j * n + k];
                 if v != 0.0 {
                     indices.push(j);
                     data.push(v * inv[j]);
