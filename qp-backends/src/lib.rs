@@ -1,4 +1,4 @@
-//! Dense least-distance programs behind one solver trait.
+//! Least-distance programs behind one solver trait.
 //!
 //! Many fitting problems reduce to finding the shortest vector that satisfies
 //! a large set of linear inequalities,
@@ -7,7 +7,10 @@
 //! minimise ||x||^2   subject to   G x >= h,
 //! ```
 //!
-//! with `G` dense, up to millions of rows and a few hundred columns. This
+//! with `G` dense, up to millions of rows and a few hundred columns: stored,
+//! or generated from the basis values of an interval fit
+//! ([`LdpProblem::from_intervals`]) so that a problem of a million samples
+//! costs no `rows x cols` copy. This
 //! crate states that problem once ([`LdpProblem`]), defines one trait that
 //! every solver implements ([`LdpSolver`]), and ships an exact active-set
 //! solver ([`NativeSolver`], Goldfarb-Idnani with the identity Hessian and

@@ -243,40 +243,16 @@ impl<'a> Prepared<'a> {
                 );
                 break (None, Some(ver));
             }
-            match self.settings.pole_control {
-                PoleControl::None => {}
-                PoleControl::Bernstein { elevation } => {
-                    let m = bernstein_margin(f.basis(), f.denominator(), elevation);
-                    poles.certified = Some(m > 0.0);
-                    if m <= 0.0 {
-                        summary.note = "Bernstein certificate failed".into();
-                        break (None, Some(ver));
-                    }
+            match self.check_poles(&f, &ver, data, (n_p, n_q), summary.pole_rounds, &mut poles) {
+                PoleVerdict::Accept => {}
+                PoleVerdict::Reject(note) => {
+                    summary.note = note;
+                    break (None, Some(ver));
                 }
-                PoleControl::DenseGrid { points_per_dim } => {
-                    let g = grid_size(data.len(), data.dim(), points_per_dim);
-                    let (min, bad) = grid_check(f.basis(), f.denominator(), g, 4 * n_q + 8);
-                    // min_q / min_q_ratio is the largest q at the samples.
-                    poles.grid_min_q =
-                        Some(min / ver.min_q.max(f64::MIN_POSITIVE) * ver.min_q_ratio);
-                    if !bad.is_empty() {
-                        if summary.pole_rounds >= MAX_POLE_ROUNDS {
-                            summary.note = format!(
-                                "q <= 0 at {} grid points after {MAX_POLE_ROUNDS} rounds",
-                                bad.len()
-                            );
-                            break (None, Some(ver));
-                        }
-                        summary.pole_rounds += 1;
-                        let mut phi = vec![0.0; split_basis.len()];
-                        for x in bad {
-                            split_basis.eval_into(&x, &mut phi);
-                            let mut r = vec![0.0; n_p];
-                            r.extend_from_slice(&phi[..n_q]);
-                            rows.push(r);
-                        }
-                        continue;
-                    }
+                PoleVerdict::SolveAgain(more) => {
+                    summary.pole_rounds += 1;
+                    rows.extend(more);
+                    continue;
                 }
             }
             summary.accepted = true;
@@ -293,6 +269,66 @@ impl<'a> Prepared<'a> {
             poles,
         })
     }
+
+    /// The settings' pole control on a verified candidate: accept it,
+    /// reject it, or solve again with rows `q > 0` at the grid points where
+    /// `q <= 0` (after `rounds` such rounds).
+    fn check_poles(
+        &self,
+        f: &RationalFunction,
+        ver: &Verification,
+        data: &IntervalData,
+        (n_p, n_q): (usize, usize),
+        rounds: usize,
+        poles: &mut PoleReport,
+    ) -> PoleVerdict {
+        match self.settings.pole_control {
+            PoleControl::None => PoleVerdict::Accept,
+            PoleControl::Bernstein { elevation } => {
+                let m = bernstein_margin(f.basis(), f.denominator(), elevation);
+                poles.certified = Some(m > 0.0);
+                if m > 0.0 {
+                    PoleVerdict::Accept
+                } else {
+                    PoleVerdict::Reject("Bernstein certificate failed".into())
+                }
+            }
+            PoleControl::DenseGrid { points_per_dim } => {
+                let g = grid_size(data.len(), data.dim(), points_per_dim);
+                let (min, bad) = grid_check(f.basis(), f.denominator(), g, 4 * n_q + 8);
+                // min_q / min_q_ratio is the largest q at the samples.
+                poles.grid_min_q = Some(min / ver.min_q.max(f64::MIN_POSITIVE) * ver.min_q_ratio);
+                if bad.is_empty() {
+                    return PoleVerdict::Accept;
+                }
+                if rounds >= MAX_POLE_ROUNDS {
+                    return PoleVerdict::Reject(format!(
+                        "q <= 0 at {} grid points after {MAX_POLE_ROUNDS} rounds",
+                        bad.len()
+                    ));
+                }
+                let mut phi = vec![0.0; f.basis().len()];
+                let rows = bad
+                    .iter()
+                    .map(|x| {
+                        f.basis().eval_into(x, &mut phi);
+                        let mut r = vec![0.0; n_p];
+                        r.extend_from_slice(&phi[..n_q]);
+                        r
+                    })
+                    .collect();
+                PoleVerdict::SolveAgain(rows)
+            }
+        }
+    }
+}
+
+/// What the pole check makes of a verified candidate.
+enum PoleVerdict {
+    Accept,
+    Reject(String),
+    /// Rows `q > 0` at points where `q <= 0`, for another round.
+    SolveAgain(Vec<Vec<f64>>),
 }
 
 fn check_sizes(data: &IntervalData, settings: &FitSettings) -> Result<usize, FitError> {
