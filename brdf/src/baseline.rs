@@ -9,7 +9,7 @@ use crate::geometry::HalfDiff;
 use crate::reduce::Samples;
 use crate::Brdf;
 use faer::linalg::solvers::SolveLstsq;
-use rational_core::{Basis, BasisFamily, Domain, IntervalData};
+use rational_core::{blocked_triangular_factor, Basis, BasisFamily, Domain, IntervalData};
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
 
@@ -68,18 +68,28 @@ pub fn polynomial(
     let basis = Basis::weighted(family, domain, n.max(1), weights).expect("valid weights");
     // Relative errors need a positive value.
     let positive: Vec<usize> = (0..data.len()).filter(|&i| data.value(i) > 0.0).collect();
-    // Design matrix weighted by 1/v: the residual is the relative error.
-    let mut a = faer::Mat::<f64>::zeros(positive.len(), basis.len());
-    let mut row = vec![0.0; basis.len()];
-    for (k, &i) in positive.iter().enumerate() {
-        basis.eval_into(data.point(i), &mut row);
-        for (j, v) in row.iter().enumerate() {
-            a[(k, j)] = v / data.value(i);
-        }
-    }
-    let b = faer::Mat::<f64>::from_fn(positive.len(), 1, |_, _| 1.0);
-    let c = a.qr().solve_lstsq(&b);
-    let coef: Vec<f64> = (0..basis.len()).map(|j| c[(j, 0)]).collect();
+    // Least squares of the design weighted by 1/v (the residual is the
+    // relative error) against ones, from the blocked QR of `[A | 1]`: its
+    // `R` holds the normal solution's triangle and right-hand side, and no
+    // `samples x n` copy of the design is stored.
+    let n = basis.len();
+    let r = blocked_triangular_factor(positive.len(), n + 1, |k, out| {
+        let i = positive[k];
+        basis.eval_into(data.point(i), &mut out[..n]);
+        out[..n].iter_mut().for_each(|v| *v /= data.value(i));
+        out[n] = 1.0;
+    });
+    let coef: Vec<f64> = if r.nrows() < n + 1 {
+        vec![f64::NAN; n]
+    } else {
+        let mut c = r.as_ref().submatrix(0, n, n, 1).to_owned();
+        faer::linalg::triangular_solve::solve_upper_triangular_in_place(
+            r.as_ref().submatrix(0, 0, n, n),
+            c.as_mut(),
+            faer::Par::Seq,
+        );
+        (0..n).map(|j| c[(j, 0)]).collect()
+    };
     let errors = positive
         .iter()
         .map(|&i| (basis.combine(&coef, data.point(i)) / data.value(i) - 1.0).abs());

@@ -9,7 +9,7 @@ use crate::geometry::HalfDiff;
 use crate::lobe::Lobe;
 use crate::reduce::{Reduction, Samples};
 use crate::{Brdf, BrdfError};
-use rational_core::{fit, FitSettings, IntervalData, Progress, RationalFunction};
+use rational_core::{fit, FitSettings, IntervalData, Progress, RationalFunction, SharedDesign};
 use rayon::prelude::*;
 use std::sync::Arc;
 use std::time::Instant;
@@ -234,9 +234,11 @@ pub fn fit_samples(
     let peaks = measured_peaks(samples);
     let derived = in_fitted_mode(samples, settings)?;
     let samples = derived.as_ref().unwrap_or(samples);
+    // The channels are fitted at the same directions: one design serves all.
+    let design = SharedDesign::new();
     let results: Vec<Result<(RationalFunction, ChannelReport), BrdfError>> = (0..3)
         .into_par_iter()
-        .map(|c| fit_channel(samples, c, settings))
+        .map(|c| fit_channel(samples, c, settings, Some(&design)))
         .collect();
     let parts = results.into_iter().collect::<Result<Vec<_>, _>>()?;
     let (fitted, mut report) = assemble(samples, peaks, name, settings, parts);
@@ -263,7 +265,7 @@ pub fn fit_samples_channel(
         });
     }
     let derived = in_fitted_mode(samples, settings)?;
-    fit_channel(derived.as_ref().unwrap_or(samples), channel, settings)
+    fit_channel(derived.as_ref().unwrap_or(samples), channel, settings, None)
 }
 
 /// Joins three channels fitted by [`fit_samples_channel`] with the same
@@ -520,6 +522,7 @@ fn fit_channel(
     samples: &Samples,
     c: usize,
     s: &BrdfFitSettings,
+    design: Option<&SharedDesign>,
 ) -> Result<(RationalFunction, ChannelReport), BrdfError> {
     let channel = s.mode.names()[c];
     let (data, used, bounds) = match &s.design {
@@ -562,6 +565,10 @@ fn fit_channel(
             s.fit.clone().with_progress(Arc::new(move |p| cb(c, p)))
         }
         None => s.fit.clone(),
+    };
+    let engine = match design {
+        Some(d) => engine.with_shared_design(d.clone()),
+        None => engine,
     };
     let report = fit(&data, &engine).map_err(fit_err)?;
     let (report, cap_check) = if cap > 0.0 && cap.is_finite() {

@@ -3,6 +3,7 @@
 use crate::poles::{bernstein_margin, bernstein_rows, grid_check, grid_size};
 use crate::problem::{
     build_problem_in, condition_number, DesignMatrix, ExtraConstraints, NoExtraConstraints,
+    SharedDesign,
 };
 use crate::report::{FitReport, PoleReport, SplitSummary};
 use crate::verify::{error_figures, verify, Verification};
@@ -13,7 +14,6 @@ use crate::{
 use qp_backends::{CancelFlag, LdpProblem, Status};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicUsize, Ordering};
-use std::sync::RwLock;
 use std::time::Instant;
 
 /// Dense-grid rounds before a split with poles between samples is rejected.
@@ -41,8 +41,10 @@ struct Prepared<'a> {
     basis: Basis,
     /// Basis values at the samples, as many functions as the widest split
     /// so far needed (grown by doubling): a search whose answer is small
-    /// never evaluates, nor stores, the whole basis.
-    design: RwLock<DesignMatrix>,
+    /// never evaluates, nor stores, the whole basis. The settings' shared
+    /// design when it holds these points and basis, else this fit's own.
+    shared: Option<SharedDesign>,
+    own: SharedDesign,
     data: &'a IntervalData,
     settings: &'a FitSettings,
     extra: &'a dyn ExtraConstraints,
@@ -74,10 +76,6 @@ impl<'a> Prepared<'a> {
             Some(w) => Basis::weighted(settings.family, domain, len, w)?,
             None => Basis::new(settings.family, domain, len)?,
         };
-        let design = RwLock::new(DesignMatrix::new(
-            &basis.with_len(INITIAL_DESIGN_WIDTH.min(len))?,
-            data,
-        ));
         let scale = if settings.value_scaling {
             data.value_scale()
         } else {
@@ -85,7 +83,8 @@ impl<'a> Prepared<'a> {
         };
         Ok(Self {
             basis,
-            design,
+            shared: settings.shared_design.clone(),
+            own: SharedDesign::new(),
             data,
             settings,
             extra,
@@ -122,18 +121,16 @@ impl<'a> Prepared<'a> {
 
     /// The design matrix with at least `width` functions (a shared handle).
     fn design_of_width(&self, width: usize) -> Result<DesignMatrix, FitError> {
-        {
-            let design = self.design.read().unwrap_or_else(|e| e.into_inner());
-            if design.cols() >= width {
-                return Ok(design.clone());
+        let width = width.max(INITIAL_DESIGN_WIDTH).min(self.basis.len());
+        if let Some(shared) = &self.shared {
+            if let Some(design) = shared.of_width(&self.basis, self.data, width)? {
+                return Ok(design);
             }
         }
-        let mut design = self.design.write().unwrap_or_else(|e| e.into_inner());
-        if design.cols() < width {
-            let grown = (2 * design.cols()).max(width).min(self.basis.len());
-            *design = DesignMatrix::new(&self.basis.with_len(grown)?, self.data);
-        }
-        Ok(design.clone())
+        Ok(self
+            .own
+            .of_width(&self.basis, self.data, width)?
+            .expect("a fit's own design holds its points and basis"))
     }
 
     /// The rational function of a solution vector `(a, b)` (numerator

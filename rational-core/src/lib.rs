@@ -55,8 +55,8 @@ pub use fit::{
 };
 pub use poles::PoleControl;
 pub use problem::{
-    build_problem, build_problem_scaled, condition_number, DesignMatrix, ExtraConstraints,
-    NoExtraConstraints,
+    blocked_triangular_factor, build_problem, build_problem_scaled, condition_number, DesignMatrix,
+    ExtraConstraints, NoExtraConstraints, SharedDesign,
 };
 pub use qp_backends::{Backend, SolveOptions, Status};
 pub use rational::RationalFunction;

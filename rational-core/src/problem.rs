@@ -2,9 +2,10 @@
 //! divided by its Euclidean norm, `G c >= 1`.
 
 use crate::{Basis, FitError, IntervalData};
+use faer::{Mat, MatRef};
 use qp_backends::LdpProblem;
 use rayon::prelude::*;
-use std::sync::Arc;
+use std::sync::{Arc, RwLock};
 
 /// Basis values at every sample (`samples x cols`, row-major), computed once
 /// and shared by every split of a sweep: the problems of the splits generate
@@ -19,15 +20,15 @@ impl DesignMatrix {
     /// Evaluates the first `basis.len()` functions at every point of `data`.
     pub fn new(basis: &Basis, data: &IntervalData) -> Self {
         let cols = basis.len();
-        let mut values = vec![0.0; data.len() * cols];
-        values
+        // Collected from a sized iterator the shared slice is allocated
+        // once, filled in place: no second copy of a large design.
+        let mut values: Arc<[f64]> = std::iter::repeat_n(0.0, data.len() * cols).collect();
+        Arc::get_mut(&mut values)
+            .expect("a new slice has one owner")
             .par_chunks_mut(cols)
             .enumerate()
             .for_each(|(i, row)| basis.eval_into(data.point(i), row));
-        Self {
-            cols,
-            values: values.into(),
-        }
+        Self { cols, values }
     }
 
     /// Values at sample `i`.
@@ -38,6 +39,70 @@ impl DesignMatrix {
     /// Number of basis functions.
     pub fn cols(&self) -> usize {
         self.cols
+    }
+}
+
+/// Basis values that several fits of the same points share: the channels
+/// of a colour material are fitted at one set of directions with the same
+/// basis, so one design matrix serves all of them (a third of the memory of
+/// three). Give clones of one handle to the fits'
+/// [`FitSettings::with_shared_design`](crate::FitSettings::with_shared_design);
+/// the first fit's points and basis claim it, and a fit whose points or
+/// basis differ evaluates its own.
+#[derive(Debug, Clone, Default)]
+pub struct SharedDesign(Arc<RwLock<Option<SharedEntry>>>);
+
+#[derive(Debug)]
+struct SharedEntry {
+    basis: Basis,
+    points: Arc<[f64]>,
+    design: DesignMatrix,
+}
+
+impl SharedDesign {
+    /// A handle with no design yet.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// The design of `data` under `basis` with at least `width` functions
+    /// (grown by doubling up to the basis' length), or `None` when the
+    /// handle holds another fit's points or basis.
+    pub(crate) fn of_width(
+        &self,
+        basis: &Basis,
+        data: &IntervalData,
+        width: usize,
+    ) -> Result<Option<DesignMatrix>, FitError> {
+        let matches = |e: &SharedEntry| e.basis == *basis && *e.points == *data.points();
+        {
+            let entry = self.0.read().unwrap_or_else(|e| e.into_inner());
+            match entry.as_ref() {
+                Some(e) if !matches(e) => return Ok(None),
+                Some(e) if e.design.cols() >= width => return Ok(Some(e.design.clone())),
+                _ => {}
+            }
+        }
+        let mut entry = self.0.write().unwrap_or_else(|e| e.into_inner());
+        match entry.as_mut() {
+            Some(e) if !matches(e) => Ok(None),
+            Some(e) => {
+                if e.design.cols() < width {
+                    let grown = (2 * e.design.cols()).max(width).min(basis.len());
+                    e.design = DesignMatrix::new(&basis.with_len(grown)?, data);
+                }
+                Ok(Some(e.design.clone()))
+            }
+            None => {
+                let design = DesignMatrix::new(&basis.with_len(width.min(basis.len()))?, data);
+                *entry = Some(SharedEntry {
+                    basis: basis.clone(),
+                    points: data.points().into(),
+                    design: design.clone(),
+                });
+                Ok(Some(design))
+            }
+        }
     }
 }
 
@@ -161,17 +226,54 @@ fn normalise(row: &mut [f64]) {
     }
 }
 
-/// 2-norm condition number of `G` (thin QR by faer, then the singular values
-/// of `R`); `+inf` when `G` is rank deficient.
+/// Rows per block of [`blocked_triangular_factor`]: large enough to amortise
+/// each factorisation, small enough that a million-row matrix never holds
+/// more than a few megabytes at once.
+const QR_BLOCK_ROWS: usize = 8192;
+
+/// The `R` factor (`min(rows, cols) x cols`, upper triangular) of the thin
+/// QR of a tall matrix given row by row: `fill_row(i, out)` writes row `i`.
+///
+/// Each block of rows is factorised on its own (on several threads) and the
+/// triangular factors are stacked and factorised again in a fixed order, so
+/// the matrix is never stored whole and the result does not depend on the
+/// thread count. `R` is that of the whole matrix up to the signs of its
+/// rows: its singular values are the matrix's, and least squares follow by
+/// appending the right-hand side as a last column.
+pub fn blocked_triangular_factor(
+    rows: usize,
+    cols: usize,
+    fill_row: impl Fn(usize, &mut [f64]) + Sync,
+) -> Mat<f64> {
+    if rows == 0 || cols == 0 {
+        return Mat::zeros(0, cols);
+    }
+    let block = QR_BLOCK_ROWS.max(4 * cols);
+    let factors: Vec<Mat<f64>> = (0..rows.div_ceil(block))
+        .into_par_iter()
+        .map(|b| {
+            let range = b * block..((b + 1) * block).min(rows);
+            let mut values = vec![0.0; range.len() * cols];
+            for (i, out) in range.clone().zip(values.chunks_mut(cols)) {
+                fill_row(i, out);
+            }
+            triangular_factor(&[MatRef::from_row_major_slice(&values, range.len(), cols)])
+        })
+        .collect();
+    factors.iter().skip(1).fold(factors[0].clone(), |r, next| {
+        triangular_factor(&[r.as_ref(), next.as_ref()])
+    })
+}
+
+/// 2-norm condition number of `G` (the singular values of `R` from
+/// [`blocked_triangular_factor`], so a generated `G` is never stored whole);
+/// `+inf` when `G` is rank deficient.
 pub fn condition_number(problem: &LdpProblem) -> f64 {
     let (m, n) = (problem.rows(), problem.cols());
-    if m < n {
+    if m < n || n == 0 {
         return f64::INFINITY;
     }
-    let g = problem.g();
-    let g = faer::MatRef::from_row_major_slice(&g, m, n);
-    let qr = g.qr();
-    let r = qr.thin_R().to_owned();
+    let r = blocked_triangular_factor(m, n, |i, out| problem.row_into(i, out));
     match r.singular_values() {
         Ok(sv) => {
             let max = sv.iter().cloned().fold(0.0, f64::max);
@@ -184,6 +286,22 @@ pub fn condition_number(problem: &LdpProblem) -> f64 {
         }
         Err(_) => f64::NAN,
     }
+}
+
+/// The `R` factor of the thin QR of `parts` stacked one above the other.
+fn triangular_factor(parts: &[MatRef<'_, f64>]) -> Mat<f64> {
+    let n = parts[0].ncols();
+    let m: usize = parts.iter().map(|p| p.nrows()).sum();
+    let mut stacked = Mat::<f64>::zeros(m, n);
+    let mut at = 0;
+    for p in parts {
+        stacked
+            .as_mut()
+            .submatrix_mut(at, 0, p.nrows(), n)
+            .copy_from(p);
+        at += p.nrows();
+    }
+    stacked.qr().thin_R().to_owned()
 }
 
 #[cfg(test)]
@@ -230,5 +348,43 @@ mod tests {
         .unwrap();
         let k = condition_number(&p);
         assert!((k - 2f64.sqrt()).abs() < 1e-12, "{k}");
+    }
+
+    #[test]
+    fn the_blocked_condition_number_is_that_of_the_whole_matrix() {
+        // Two full blocks and a short one, from an interval fit whose rows
+        // are generated: the blocked QR must agree with one QR of all of `G`.
+        let samples = QR_BLOCK_ROWS + QR_BLOCK_ROWS / 3;
+        let x: Vec<f64> = (0..samples).map(|i| i as f64 / samples as f64).collect();
+        let lo: Vec<f64> = x.iter().map(|t| 1.0 + t * t).collect();
+        let hi: Vec<f64> = lo.iter().map(|v| v * 1.1).collect();
+        let data = IntervalData::new(1, x, lo, hi).unwrap();
+        let basis = Basis::new(
+            BasisFamily::Chebyshev,
+            Domain::new(vec![0.0], vec![1.0]).unwrap(),
+            6,
+        )
+        .unwrap();
+        let design = DesignMatrix::new(&basis, &data);
+        let p = build_problem(&design, &data, 6, 4, &[]).unwrap();
+        let g = p.g();
+        let whole = MatRef::from_row_major_slice(&g, p.rows(), p.cols())
+            .qr()
+            .thin_R()
+            .to_owned()
+            .singular_values()
+            .unwrap();
+        let max = whole.iter().cloned().fold(0.0, f64::max);
+        let min = whole.iter().cloned().fold(f64::INFINITY, f64::min);
+        let blocked = condition_number(&p);
+        assert!(
+            (blocked / (max / min) - 1.0).abs() < 1e-9,
+            "{blocked} against {}",
+            max / min
+        );
+        assert!(
+            blocked > 10.0,
+            "rows scaled by the bounds are far from orthogonal"
+        );
     }
 }

@@ -1,6 +1,6 @@
 //! Fit settings: `Default` plus validated `with_*` methods.
 
-use crate::{BasisFamily, Domain, FitError, PoleControl};
+use crate::{BasisFamily, Domain, FitError, PoleControl, SharedDesign};
 use qp_backends::{Backend, SolveOptions};
 use serde::{Deserialize, Serialize};
 use std::sync::atomic::AtomicBool;
@@ -104,6 +104,7 @@ pub struct FitSettings {
     pub(crate) value_scaling: bool,
     pub(crate) progress: Option<ProgressFn>,
     pub(crate) cancel: Option<Arc<AtomicBool>>,
+    pub(crate) shared_design: Option<SharedDesign>,
 }
 
 impl std::fmt::Debug for FitSettings {
@@ -122,6 +123,7 @@ impl std::fmt::Debug for FitSettings {
             .field("pole_control", &self.pole_control)
             .field("value_scaling", &self.value_scaling)
             .field("cancellable", &self.cancel.is_some())
+            .field("shared_design", &self.shared_design.is_some())
             .finish_non_exhaustive()
     }
 }
@@ -147,6 +149,7 @@ impl Default for FitSettings {
             value_scaling: true,
             progress: None,
             cancel: None,
+            shared_design: None,
         }
     }
 }
@@ -271,6 +274,15 @@ impl FitSettings {
     /// split. Off reproduces the paper's formulation exactly.
     pub fn with_value_scaling(mut self, on: bool) -> Self {
         self.value_scaling = on;
+        self
+    }
+
+    /// Basis values shared with other fits of the same points (the channels
+    /// of a material): each fit given a clone of one handle reads the
+    /// design the first one evaluated, when its points and basis are the
+    /// same, instead of evaluating and storing its own.
+    pub fn with_shared_design(mut self, design: SharedDesign) -> Self {
+        self.shared_design = Some(design);
         self
     }
 
