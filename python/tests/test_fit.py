@@ -179,9 +179,10 @@ def test_evaluation_refuses_points_of_the_wrong_width():
 
 
 def test_ctrl_c_interrupts_a_long_fit():
-    # Thousands of splits of a tight fit; SIGINT arrives after 0.5 s.
-    x = np.linspace(-1, 1, 3000)
-    v = np.sin(30 * x) + 2
+    # Thousands of splits of a tight fit (about 8 s uninterrupted on two
+    # cores); SIGINT arrives after 0.5 s.
+    x = np.linspace(-1, 1, 20000)
+    v = np.sin(60 * x) + 2
     timer = threading.Timer(0.5, os.kill, (os.getpid(), signal.SIGINT))
     start = time.monotonic()
     timer.start()

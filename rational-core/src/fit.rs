@@ -36,6 +36,72 @@ pub struct SplitFit {
     pub poles: PoleReport,
 }
 
+/// Every `stride`-th sample of the prepared data ([`crate::Screen`]), with
+/// its own design; the bounds are taken from each split's data.
+struct Subsample {
+    stride: usize,
+    points: IntervalData,
+    design: SharedDesign,
+}
+
+/// What the subsample said of a split, with its active rows as rows of the
+/// full problem.
+enum Screened {
+    /// Infeasible there, so infeasible on all samples.
+    Infeasible { iterations: usize, rows: Vec<usize> },
+    /// Not refused: the full problem decides (starting from `rows`).
+    Open { iterations: usize, rows: Vec<usize> },
+}
+
+impl Subsample {
+    fn of(data: &IntervalData, stride: usize) -> Result<Self, FitError> {
+        Ok(Self {
+            stride,
+            points: Self::pick(data, stride)?,
+            design: SharedDesign::new(),
+        })
+    }
+
+    /// Every `stride`-th sample of `data`.
+    fn pick(data: &IntervalData, stride: usize) -> Result<IntervalData, FitError> {
+        let keep = (0..data.len()).step_by(stride);
+        let points = keep
+            .clone()
+            .flat_map(|i| data.point(i).iter().copied())
+            .collect();
+        let lo = keep.clone().map(|i| data.lo()[i]).collect();
+        let hi = keep.map(|i| data.hi()[i]).collect();
+        IntervalData::new(data.dim(), points, lo, hi)
+    }
+
+    /// The subsample with `data`'s bounds (the prepared points, possibly
+    /// widened).
+    fn bounds_of(&self, data: &IntervalData) -> Result<IntervalData, FitError> {
+        Self::pick(data, self.stride)
+    }
+
+    /// The subsample problem's row for row `j` of the full one of `full`
+    /// samples: a data row of a kept sample, or an added row.
+    fn to_sub(&self, j: usize, full: usize) -> Option<usize> {
+        let kept = self.points.len();
+        if j >= 2 * full {
+            return Some(2 * kept + j - 2 * full);
+        }
+        let sample = j / 2;
+        (sample % self.stride == 0).then(|| 2 * (sample / self.stride) + j % 2)
+    }
+
+    /// The full problem's row for row `r` of the subsample's.
+    fn to_full(&self, r: usize, full: usize) -> usize {
+        let kept = self.points.len();
+        if r >= 2 * kept {
+            2 * full + r - 2 * kept
+        } else {
+            2 * (r / 2 * self.stride) + r % 2
+        }
+    }
+}
+
 /// Everything the splits of a sweep share.
 struct Prepared<'a> {
     basis: Basis,
@@ -45,6 +111,8 @@ struct Prepared<'a> {
     /// design when it holds these points and basis, else this fit's own.
     shared: Option<SharedDesign>,
     own: SharedDesign,
+    /// The subsample each split is solved on first, for large data.
+    screen: Option<Subsample>,
     data: &'a IntervalData,
     settings: &'a FitSettings,
     extra: &'a dyn ExtraConstraints,
@@ -85,6 +153,11 @@ impl<'a> Prepared<'a> {
             basis,
             shared: settings.shared_design.clone(),
             own: SharedDesign::new(),
+            screen: if settings.screen.applies(data.len()) {
+                Some(Subsample::of(data, settings.screen.stride)?)
+            } else {
+                None
+            },
             data,
             settings,
             extra,
@@ -186,6 +259,15 @@ impl<'a> Prepared<'a> {
             certified: None,
         };
         let mut warm = std::mem::take(active);
+        if self.refused_by_screen(data, (n_p, n_q), &rows, &mut warm, &mut summary, active)? {
+            summary.seconds = start.elapsed().as_secs_f64();
+            return Ok(SplitFit {
+                summary,
+                function: None,
+                verification: None,
+                poles,
+            });
+        }
         // Each exit of the loop names the outcome; the timing and the result
         // are assembled once below.
         let (function, verification) = loop {
@@ -264,6 +346,90 @@ impl<'a> Prepared<'a> {
             function,
             verification,
             poles,
+        })
+    }
+
+    /// Whether the subsample (when there is one) refuses the split: then
+    /// `summary` says so and `active` holds the subsample's active data
+    /// rows; otherwise `warm`, when empty, becomes the subsample's rows.
+    fn refused_by_screen(
+        &self,
+        data: &IntervalData,
+        split: (usize, usize),
+        rows: &[Vec<f64>],
+        warm: &mut Vec<usize>,
+        summary: &mut SplitSummary,
+        active: &mut Vec<usize>,
+    ) -> Result<bool, FitError> {
+        let Some(sub) = &self.screen else {
+            return Ok(false);
+        };
+        match self.screen_split(sub, data, split, rows, warm)? {
+            Screened::Infeasible { iterations, rows } => {
+                summary.status = Status::Infeasible;
+                summary.iterations = iterations;
+                summary.note = format!("infeasible on one sample in {}, hence on all", sub.stride);
+                active.extend(rows.into_iter().filter(|&j| j < 2 * data.len()));
+                Ok(true)
+            }
+            Screened::Open { iterations, rows } => {
+                summary.iterations = iterations;
+                if warm.is_empty() {
+                    *warm = rows;
+                }
+                Ok(false)
+            }
+        }
+    }
+
+    /// P(n_p, n_q) on the subsample with `data`'s bounds, started from the
+    /// rows of `warm` it holds; its verdict and active rows, as rows of the
+    /// full problem.
+    fn screen_split(
+        &self,
+        sub: &Subsample,
+        data: &IntervalData,
+        (n_p, n_q): (usize, usize),
+        rows: &[Vec<f64>],
+        warm: &[usize],
+    ) -> Result<Screened, FitError> {
+        let sub_data = sub.bounds_of(data)?;
+        let width = n_p.max(n_q).max(INITIAL_DESIGN_WIDTH).min(self.basis.len());
+        let design = sub
+            .design
+            .of_width(&self.basis, &sub.points, width)?
+            .expect("a subsample's design holds its points and basis");
+        let problem = build_problem_in(&design, &sub_data, n_p, n_q, rows, self.scale)?;
+        let full = data.len();
+        let hint = warm.iter().filter_map(|&j| sub.to_sub(j, full)).collect();
+        let mut options = self.settings.solve_options.clone().with_warm_start(hint);
+        if let Some(flag) = &self.settings.cancel {
+            options = options.with_cancel(CancelFlag::new(flag.clone()));
+        }
+        let sol = self.settings.backend.solve(&problem, &options)?;
+        let rows = sol
+            .active_set
+            .iter()
+            .map(|&r| sub.to_full(r, full))
+            .collect();
+        Ok(match sol.status {
+            Status::Cancelled => {
+                return Err(FitError::Cancelled {
+                    splits_tried: self.solved.load(Ordering::Relaxed),
+                })
+            }
+            Status::Infeasible => Screened::Infeasible {
+                iterations: sol.iterations,
+                rows,
+            },
+            Status::Solved | Status::Inaccurate => Screened::Open {
+                iterations: sol.iterations,
+                rows,
+            },
+            _ => Screened::Open {
+                iterations: sol.iterations,
+                rows: Vec::new(),
+            },
         })
     }
 
