@@ -243,9 +243,13 @@ impl LdpProblem {
         self.cols
     }
 
-    /// Writes row `i` of `G` into `out` (`cols` long).
+    /// Writes row `i` of `G` into `out` (`cols` long), allocating nothing.
     pub fn row_into(&self, i: usize, out: &mut [f64]) {
-        out.copy_from_slice(&self.row(i));
+        assert_eq!(out.len(), self.cols, "out has {} entries", out.len());
+        match &self.source {
+            RowSource::Interval(r) if i < 2 * r.samples() => r.row_into(i, out),
+            _ => out.copy_from_slice(&self.row(i)),
+        }
     }
 
     /// Row `i` of `G`: borrowed when `G` is stored, generated otherwise.
@@ -277,7 +281,7 @@ impl LdpProblem {
                 let mut g = vec![0.0; self.rows * n];
                 g.par_chunks_mut(n)
                     .enumerate()
-                    .for_each(|(i, row)| row.copy_from_slice(&self.row(i)));
+                    .for_each(|(i, row)| self.row_into(i, row));
                 Cow::Owned(g)
             }
         }

@@ -52,7 +52,11 @@ impl WorkingSet {
 
     fn push(&mut self, problem: &LdpProblem, inv_norm: &[f64], j: usize) {
         let s = inv_norm[j];
-        self.rows.extend(problem.row(j).iter().map(|v| v * s));
+        let start = self.rows.len();
+        self.rows.resize(start + self.cols, 0.0);
+        let row = &mut self.rows[start..];
+        problem.row_into(j, row);
+        row.iter_mut().for_each(|v| *v *= s);
         self.h.push(problem.h()[j] * s);
         self.global.push(j);
     }
