@@ -216,9 +216,37 @@ pub(crate) fn max_elevation_deg(angles: [f64; 3]) -> f64 {
     wi[2].min(wo[2]).clamp(-1.0, 1.0).acos().to_degrees()
 }
 
+impl Samples {
+    /// The colour most of a render shows, as linear sRGB: the median of
+    /// each function (the samples hold `mode`'s functions) over the cells
+    /// within the trusted elevations, combined. Black when there is none.
+    pub fn typical_colour(&self, mode: crate::ColourMode) -> [f64; 3] {
+        let median = |c: usize| {
+            let mut v: Vec<f64> = self
+                .rows
+                .iter()
+                .filter(|r| {
+                    r.value[c].is_finite() && max_elevation_deg(r.angles) <= TRUSTED_ELEVATION_DEG
+                })
+                .map(|r| r.value[c])
+                .collect();
+            if v.is_empty() {
+                return 0.0;
+            }
+            let mid = v.len() / 2;
+            *v.select_nth_unstable_by(mid, f64::total_cmp).1
+        };
+        mode.combine([median(0), median(1), median(2)])
+    }
+}
+
 /// What the design used for one channel.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ChannelBounds {
+    /// Relative half-width where the light is visible (the design's, times
+    /// the colour mode's perceptual factor for this function).
+    #[serde(default)]
+    pub rel_tol: f64,
     /// Largest value over cells within 70 degrees of the normal.
     pub peak: f64,
     /// Median of `f cos_i cos_o` there.
@@ -280,6 +308,7 @@ impl Samples {
         let noise = estimate_noise(self, c);
         let cap = bounds.peak_cap * peak;
         let mut info = ChannelBounds {
+            rel_tol: bounds.rel_tol,
             peak,
             weighted_median,
             noise: noise.global,
@@ -407,5 +436,25 @@ mod tests {
                 assert!(h >= 0.04 * v * (1.0 - 1e-12));
             }
         }
+    }
+
+    #[test]
+    fn the_typical_colour_is_the_diffuse_colour_and_sets_the_ratios_half_widths() {
+        let kd = [0.3, 0.3, 0.28];
+        let truth = crate::Lambert { albedo: kd };
+        let samples = Reduction::default()
+            .with_max_elevation(90.0)
+            .with_max_theta_d(90.0)
+            .sample(&truth);
+        let mode = crate::ColourMode::LuminanceChroma;
+        let typical = samples.in_colour_mode(mode).typical_colour(mode);
+        for c in 0..3 {
+            let want = kd[c] / std::f64::consts::PI;
+            assert!((typical[c] / want - 1.0).abs() < 1e-9, "{typical:?}");
+        }
+        // A near grey: the ratios need tighter half-widths than the luminance.
+        let f = mode.perceptual_factors(typical);
+        assert!((f[0] - 1.0).abs() < f64::EPSILON, "{f:?}");
+        assert!(f[1] < 0.7 && f[2] < 0.9, "{f:?}");
     }
 }

@@ -120,8 +120,8 @@ impl fmt::Display for BrdfFitReport {
                 if let Some(b) = &c.bounds {
                     writeln!(
                         f,
-                        "  {}   peak {:.4e}, noise {:.2}% (estimated), cells bound by perception / floor / noise: {} / {} / {}",
-                        c.channel, b.peak, b.noise * 100.0, b.perceptual_cells, b.floor_cells, b.noise_cells,
+                        "  {}   +-{:.2}% where visible, peak {:.4e}, noise {:.2}% (estimated), cells bound by perception / floor / noise: {} / {} / {}",
+                        c.channel, b.rel_tol * 100.0, b.peak, b.noise * 100.0, b.perceptual_cells, b.floor_cells, b.noise_cells,
                     )?;
                 }
             }
@@ -180,7 +180,8 @@ impl fmt::Display for BrdfFitReport {
             writeln!(
                 f,
                 "  {}   no fit within the budget at the requested intervals; fitted with every interval widened x{} (on a log scale)",
-                c.channel, c.interval_scale
+                c.channel,
+                scale_text(c.interval_scale)
             )?;
         }
         for c in &self.channels {
@@ -198,4 +199,11 @@ impl fmt::Display for BrdfFitReport {
             self.seconds
         )
     }
+}
+
+/// A widening factor with at most three decimals and no trailing zeros
+/// (`2`, `1.414`).
+pub fn scale_text(scale: f64) -> String {
+    let text = format!("{scale:.3}");
+    text.trim_end_matches('0').trim_end_matches('.').to_string()
 }

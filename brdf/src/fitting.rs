@@ -527,7 +527,11 @@ fn fit_channel(
     let channel = s.mode.names()[c];
     let (data, used, bounds) = match &s.design {
         Some(design) => {
-            let (d, u, b) = samples.channel_perceptual(c, design)?;
+            // The chroma ratios get the half-width whose colour difference
+            // matches the luminance's at the material's typical colour.
+            let factor = s.mode.perceptual_factors(samples.typical_colour(s.mode))[c];
+            let design = design.with_rel_tol(design.rel_tol * factor)?;
+            let (d, u, b) = samples.channel_perceptual(c, &design)?;
             (d, u, Some(b))
         }
         None => {

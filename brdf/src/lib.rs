@@ -36,6 +36,7 @@ mod fitted;
 mod fitting;
 mod geometry;
 pub mod io;
+pub mod lab;
 mod lobe;
 mod material;
 mod reduce;
@@ -52,7 +53,7 @@ pub use downsample::DownsampledTable;
 pub use error::{write_atomic, BrdfError};
 pub use export::alta::{AltaChannel, AltaRational};
 pub use export::{compact, compact_batch, shader};
-pub use fit_report::{BrdfFitReport, ChannelReport};
+pub use fit_report::{scale_text, BrdfFitReport, ChannelReport};
 pub use fitted::{FittedBrdf, CEILING_OVER_PEAK};
 pub use fitting::{
     assemble_channels, fit_brdf, fit_samples, fit_samples_channel, BrdfFitSettings,

@@ -64,11 +64,17 @@ pub struct FitArgs {
     /// to eight times sooner).
     #[arg(long)]
     search: Option<Search>,
-    /// When no budget is feasible, double every interval half-width and fit
-    /// again, at most this many times (the report names the factor used);
-    /// 0 asks for the exact intervals or no fit.
+    /// When no budget is feasible, widen every interval half-width by
+    /// `--widen-factor` and fit again, at most this many times (the report
+    /// names the factor used); 0 asks for the exact intervals or no fit.
     #[arg(long, default_value_t = 6)]
     max_widenings: usize,
+    /// The factor of each widening (above 1). Default: 2 for plain
+    /// intervals; sqrt 2 with `--perceptual` and `--target-de`, whose
+    /// intervals are what the renders show, so the fit stays nearer them
+    /// (each widening that still finds nothing costs one more search).
+    #[arg(long, value_parser = crate::args::positive)]
+    widen_factor: Option<f64>,
     /// Fit to a perceptual budget instead of fixed intervals: the smallest
     /// perceptual fit (whole hemisphere) whose validation renders (a sphere
     /// under three directional lights and under a sky) reach this mean
@@ -189,7 +195,15 @@ pub fn fit_to_json(args: &FitArgs) -> Result<serde_json::Value> {
         fit_settings = fit_settings.with_degree_weights(args.degree_weights.clone())?;
     }
     if args.max_widenings > 0 {
-        fit_settings = fit_settings.with_widening(2.0, args.max_widenings)?;
+        let perceptual = args.perceptual || args.target_de.is_some();
+        let factor = args.widen_factor.unwrap_or(if perceptual {
+            std::f64::consts::SQRT_2
+        } else {
+            2.0
+        });
+        fit_settings = fit_settings
+            .with_widening(factor, args.max_widenings)
+            .with_context(|| format!("--widen-factor {factor}"))?;
     }
     // Every flag is checked whatever the format, even those ALTA data
     // (fitted in the file's own parametrisation) do not use.

@@ -215,6 +215,8 @@ fn bad_input_gives_clear_errors() {
         ("rgl", "--max-coeffs", "1", "at least 2"),
         ("rgl", "--target-de", "0", "positive"),
         ("rgl", "--cap-rounds", "17", "outside 0..=16"),
+        ("rgl", "--widen-factor", "0", "must be positive"),
+        ("rgl", "--widen-factor", "1", "--widen-factor 1"),
     ] {
         let out = ratfit()
             .arg("fit")

@@ -46,7 +46,7 @@
 //! ```
 
 mod camera;
-pub mod color;
+pub use brdf::lab as color;
 pub mod compare;
 pub mod description;
 mod error;

@@ -219,11 +219,18 @@ mod rational_mode {
     };
     use rational_core::{FitSettings, Search};
 
-    fn engine(max_coeffs: usize) -> Result<FitSettings> {
+    /// The staircase search; perceptual intervals widen by sqrt 2 up to
+    /// 16 times (as `ratfit fit --perceptual`), plain ones by 2.
+    fn engine(max_coeffs: usize, perceptual: bool) -> Result<FitSettings> {
+        let (factor, times) = if perceptual {
+            (std::f64::consts::SQRT_2, 8)
+        } else {
+            (2.0, 4)
+        };
         Ok(FitSettings::default()
             .with_coeff_range(2, max_coeffs)?
             .with_search(Search::Staircase)
-            .with_widening(2.0, 4)?)
+            .with_widening(factor, times)?)
     }
 
     fn describe(fitted: &FittedBrdf, report: &brdf::BrdfFitReport) -> String {
@@ -231,7 +238,7 @@ mod rational_mode {
             .channels
             .iter()
             .filter(|c| c.interval_scale > 1.0)
-            .map(|c| format!("{} x{}", c.channel, c.interval_scale))
+            .map(|c| format!("{} x{}", c.channel, brdf::scale_text(c.interval_scale)))
             .collect();
         let splits: Vec<String> = report
             .channels
@@ -279,7 +286,7 @@ mod rational_mode {
         let settings = BrdfFitSettings::default()
             .with_rel_tol(rel_tol)?
             .with_baselines(false)
-            .with_fit_settings(engine(max_coeffs)?);
+            .with_fit_settings(engine(max_coeffs, false)?);
         let (f, r) = fit_brdf(table, &settings)?;
         let d = describe(&f, &r);
         Ok((f, d))
@@ -312,7 +319,7 @@ mod rational_mode {
             .with_colour_mode(mode)
             .with_lobe(lobe)
             .with_baselines(false)
-            .with_fit_settings(engine(max_coeffs)?);
+            .with_fit_settings(engine(max_coeffs, true)?);
         let (f, r) = fit_brdf(table, &settings)?;
         let d = describe(&f, &r);
         Ok((f, d))
