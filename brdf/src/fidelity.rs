@@ -70,33 +70,25 @@ impl Default for HemisphereSettings {
     }
 }
 
-/// A small deterministic generator for the direction pairs (SplitMix64).
-fn uniform(state: &mut u64) -> f64 {
-    *state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
-    let mut z = *state;
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
-}
-
 /// Direction pairs: uniform in solid angle over the hemisphere, every
 /// fourth pair near the mirror direction (within about 3 degrees), where
 /// specular peaks are.
 pub fn validation_pairs(n: usize, seed: u64) -> Vec<(Vec3, Vec3)> {
-    let mut state = seed.wrapping_mul(0x2545_F491_4F6C_DD1D) ^ 0x5851_F42D;
+    let mut state =
+        crate::io::merl::SplitMix::new(seed.wrapping_mul(0x2545_F491_4F6C_DD1D) ^ 0x5851_F42D);
     let mut out = Vec::with_capacity(n);
     while out.len() < n {
         let mut dir = || {
-            let z: f64 = uniform(&mut state).max(1e-6);
-            from_spherical(z.acos(), 2.0 * PI * uniform(&mut state))
+            let z: f64 = state.uniform().max(1e-6);
+            from_spherical(z.acos(), 2.0 * PI * state.uniform())
         };
         let wi = dir();
         let wo = if out.len() % 4 == 3 {
             let (t, p) = crate::geometry::to_spherical(wi);
-            let jitter = 0.05 * (uniform(&mut state) - 0.5);
+            let jitter = 0.05 * (state.uniform() - 0.5);
             from_spherical(
                 (t + jitter).clamp(0.0, PI / 2.0 - 1e-4),
-                p + PI + 0.1 * (uniform(&mut state) - 0.5),
+                p + PI + 0.1 * (state.uniform() - 0.5),
             )
         } else {
             dir()

@@ -9,25 +9,23 @@ use serde::Serialize;
 use std::f64::consts::{FRAC_PI_2, PI};
 use std::time::Instant;
 
-/// A small seeded generator (SplitMix64): reproducible streams per chunk.
+/// A seeded SplitMix64 with reproducible streams per chunk.
 #[derive(Debug, Clone)]
-pub struct Rng(u64);
+pub struct Rng(rand_xoshiro::SplitMix64);
 
 impl Rng {
     /// Stream `stream` of seed `seed`.
     pub fn new(seed: u64, stream: u64) -> Self {
-        let mut r = Self(seed ^ stream.wrapping_mul(0xA076_1D64_78BD_642F));
+        let mut r = Self(rand_core::SeedableRng::seed_from_u64(
+            seed ^ stream.wrapping_mul(0xA076_1D64_78BD_642F),
+        ));
         r.next_u64();
         r
     }
 
     /// Next 64 random bits.
     pub fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
+        rand_core::Rng::next_u64(&mut self.0)
     }
 
     /// Uniform in `[0, 1)` (53 bits).

@@ -77,12 +77,11 @@ impl Frame {
     }
 }
 
-/// A small, fast generator (PCG-XSH-RR 32) seeded per pixel, so a render
-/// is the same whatever the thread schedule.
+/// A small, fast generator (PCG-XSH-RR 32, `rand_pcg::Pcg32`) seeded per
+/// pixel, so a render is the same whatever the thread schedule.
 #[derive(Debug, Clone)]
 pub struct Rng {
-    state: u64,
-    inc: u64,
+    pcg: rand_pcg::Pcg32,
     lattice: Option<Lattice>,
 }
 
@@ -182,20 +181,20 @@ fn permute(index: u32, len: u32, key: u32) -> u32 {
     ((u64::from(i) + u64::from(key)) % u64::from(len)) as u32
 }
 
-/// SplitMix64 finaliser: decorrelates nearby seeds.
-fn mix(mut z: u64) -> u64 {
-    z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^ (z >> 31)
+/// The first output of SplitMix64 seeded at `z`: decorrelates nearby seeds.
+fn mix(z: u64) -> u64 {
+    let mut g: rand_xoshiro::SplitMix64 = rand_core::SeedableRng::seed_from_u64(z);
+    rand_core::Rng::next_u64(&mut g)
 }
 
 impl Rng {
     /// The stream of `(seed, index)`, for example a pixel.
     pub fn new(seed: u64, index: u64) -> Self {
         let mut r = Self {
-            state: mix(seed ^ mix(index)),
-            inc: (mix(index.wrapping_add(seed.rotate_left(32))) << 1) | 1,
+            pcg: rand_pcg::Pcg32::from_state(
+                mix(seed ^ mix(index)),
+                mix(index.wrapping_add(seed.rotate_left(32))),
+            ),
             lattice: None,
         };
         r.next_u32();
@@ -208,7 +207,7 @@ impl Rng {
     pub fn lattice(seed: u64, index: u64, count: usize) -> Self {
         let mut r = Self::new(seed, index);
         r.lattice = Some(Lattice {
-            key: mix(r.state ^ r.inc),
+            key: mix(r.pcg.state() ^ ((r.pcg.stream() << 1) | 1)),
             count: u32::try_from(count.max(1)).unwrap_or(u32::MAX),
             sample: 0,
             dimension: 0,
@@ -228,13 +227,7 @@ impl Rng {
 
     /// The next 32 random bits.
     pub fn next_u32(&mut self) -> u32 {
-        let old = self.state;
-        self.state = old
-            .wrapping_mul(6_364_136_223_846_793_005)
-            .wrapping_add(self.inc);
-        let xorshifted = (((old >> 18) ^ old) >> 27) as u32;
-        let rot = (old >> 59) as u32;
-        xorshifted.rotate_right(rot)
+        rand_core::Rng::next_u32(&mut self.pcg)
     }
 
     /// Uniform in `[0, 1)` with 53 random bits.
@@ -288,6 +281,31 @@ mod tests {
         assert!((0..8).any(|_| a.next_u32() != b.next_u32()));
         let (x, y) = (Rng::new(3, 9).uniform(), Rng::new(3, 9).uniform());
         assert!(x.to_bits() == y.to_bits(), "same stream, same numbers");
+    }
+
+    #[test]
+    fn the_generator_is_pcg_xsh_rr_with_the_seeded_state_and_increment() {
+        // PCG-XSH-RR 64/32 (O'Neill 2014), written out: renders depend on
+        // the exact sequence of each pixel's stream.
+        for (seed, index) in [(7u64, 0u64), (3, 9), (2012, 123_456), (u64::MAX, 1)] {
+            let mut state = mix(seed ^ mix(index));
+            let inc = (mix(index.wrapping_add(seed.rotate_left(32))) << 1) | 1;
+            let mut reference = || {
+                let old = state;
+                state = old
+                    .wrapping_mul(6_364_136_223_846_793_005)
+                    .wrapping_add(inc);
+                let xorshifted = (((old >> 18) ^ old) >> 27) as u32;
+                xorshifted.rotate_right((old >> 59) as u32)
+            };
+            reference();
+            let mut rng = Rng::new(seed, index);
+            for _ in 0..64 {
+                assert_eq!(rng.next_u32(), reference());
+            }
+        }
+        // The SplitMix64 finaliser of the reference paper's first output.
+        assert_eq!(mix(0), 0xE220_A839_7B1D_CDAF);
     }
 
     #[test]

@@ -2,8 +2,9 @@
 //! workspace's property and stability suite in `tests/` (which uses the
 //! public APIs of the crates).
 //!
-//! The library itself depends on nothing but `std`, so that any crate can
-//! take it as a dev-dependency without a cycle:
+//! The library itself depends on no crate of the workspace (only on
+//! `rand_xoshiro`), so that any crate can take it as a dev-dependency
+//! without a cycle:
 //!
 //! ```
 //! let mut g = ratfit_tests::SplitMix64::new(7);
@@ -26,25 +27,20 @@ pub fn data_dir() -> Option<PathBuf> {
     dir.is_dir().then_some(dir)
 }
 
-/// SplitMix64 (Steele, Lea and Flood 2014): the suites' seeded generator,
-/// so that every failure names a reproducible case. Tests need a fixed
-/// sequence and nothing more; a one-line generator says so.
+/// SplitMix64 (Steele, Lea and Flood 2014; `rand_xoshiro`'s): the suites'
+/// seeded generator, so that every failure names a reproducible case.
 #[derive(Debug, Clone)]
-pub struct SplitMix64(u64);
+pub struct SplitMix64(rand_xoshiro::SplitMix64);
 
 impl SplitMix64 {
     /// The generator at `seed`.
     pub fn new(seed: u64) -> Self {
-        Self(seed)
+        Self(rand_core::SeedableRng::seed_from_u64(seed))
     }
 
     /// The next 64 bits.
     pub fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
+        rand_core::Rng::next_u64(&mut self.0)
     }
 
     /// Uniform in `[0, 1)`, 53 bits.

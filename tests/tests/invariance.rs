@@ -65,10 +65,9 @@ proptest! {
         let base = fit(&data(&x, f, 0.02), &settings()).unwrap();
         // A deterministic permutation from the seed, plus one duplicate.
         let mut order: Vec<usize> = (0..200).collect();
-        let mut s = seed.wrapping_mul(6364136223846793005).wrapping_add(1);
+        let mut g = ratfit_tests::SplitMix64::new(seed);
         for i in (1..200).rev() {
-            s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            order.swap(i, (s >> 33) as usize % (i + 1));
+            order.swap(i, g.below(i + 1));
         }
         order.push(dup);
         let xp: Vec<f64> = order.iter().map(|&i| x[i]).collect();

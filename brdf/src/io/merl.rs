@@ -100,16 +100,16 @@ impl Default for TabulateOptions {
     }
 }
 
-/// SplitMix64: a small deterministic generator for measurement-like noise.
-pub(crate) struct SplitMix(pub u64);
+/// Measurement-like noise from a seeded SplitMix64.
+pub(crate) struct SplitMix(rand_xoshiro::SplitMix64);
 
 impl SplitMix {
+    pub(crate) fn new(seed: u64) -> Self {
+        Self(rand_core::SeedableRng::seed_from_u64(seed))
+    }
+
     pub(crate) fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
+        rand_core::Rng::next_u64(&mut self.0)
     }
 
     pub(crate) fn uniform(&mut self) -> f64 {
@@ -242,7 +242,7 @@ impl MerlBrdf {
                 }
             })
             .collect();
-        let mut rng = SplitMix(options.seed);
+        let mut rng = SplitMix::new(options.seed);
         for (idx, v) in rows {
             for c in 0..3 {
                 let noisy = if options.noise > 0.0 {
