@@ -110,7 +110,7 @@ impl fmt::Display for BrdfFitReport {
         if let Some(d) = &self.design {
             writeln!(
                 f,
-                "  perceptual intervals: +-{}% where visible, floor {}% of the peak of f cos_i cos_o, >= {} noise deviations, capped at {}x the peak; every cell of the hemisphere",
+                "  perceptual intervals: +-{}% where visible, floor {}% of the median of f cos_i cos_o (within 70 degrees), >= {} noise deviations, capped at {}x the peak; every cell of the hemisphere",
                 d.rel_tol * 100.0,
                 d.visibility * 100.0,
                 d.noise_factor,
