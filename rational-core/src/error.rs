@@ -49,9 +49,10 @@ pub enum FitError {
     /// No split of any budget up to the maximum was feasible.
     #[error(
         "no feasible rational fit with at most {max_coeffs} coefficients \
-         ({} splits tried, intervals widened {widenings} times by x{factor}); \
+         ({} splits tried, intervals widened {widenings} times by x{}); \
          raise the coefficient budget or widen the intervals",
-        splits.len()
+        splits.len(),
+        format!("{factor:.3}").trim_end_matches('0').trim_end_matches('.')
     )]
     NoFeasibleFit {
         /// Every split solved, in order, with why it was refused.
@@ -75,4 +76,24 @@ pub enum FitError {
     /// A serialised function is malformed.
     #[error("malformed rational function: {0}")]
     Malformed(String),
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_widening_factor_is_named_briefly() {
+        let message = |factor: f64| {
+            FitError::NoFeasibleFit {
+                splits: Vec::new(),
+                max_coeffs: 60,
+                widenings: 3,
+                factor,
+            }
+            .to_string()
+        };
+        assert!(message(std::f64::consts::SQRT_2).contains("3 times by x1.414)"));
+        assert!(message(2.0).contains("3 times by x2)"));
+    }
 }
