@@ -132,9 +132,14 @@ impl fmt::Display for BrdfFitReport {
             }
         }
         if let Some(c) = self.ceiling {
+            let raised = if self.design.is_some() {
+                "raised to its cap where higher; measured values beyond 80 degrees are not trusted and do not raise it"
+            } else {
+                "raised to its cap or its largest value where higher"
+            };
             writeln!(
                 f,
-                "  RGB values held at or below {:.4e}, {:.4e}, {:.4e}: {}x each channel's measured peak within 80 degrees (raised to its cap or its largest value where higher)",
+                "  RGB values held at or below {:.4e}, {:.4e}, {:.4e}: {}x each channel's measured peak within 80 degrees ({raised})",
                 c[0],
                 c[1],
                 c[2],

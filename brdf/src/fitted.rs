@@ -29,8 +29,9 @@ pub struct FittedBrdf {
     pub lobe: Option<Lobe>,
     /// The largest RGB value any evaluation returns, when there is one:
     /// [`CEILING_OVER_PEAK`] times each channel's largest measured value
-    /// within 80 degrees of the normal, or a higher value measured beyond,
-    /// or in RGB mode the cap check's cap where that is higher.
+    /// within 80 degrees of the normal, or (plain intervals) a higher value
+    /// measured beyond, or in RGB mode the cap check's cap where that is
+    /// higher.
     /// Between samples nothing else bounds `p / q`: the cap check pushes the
     /// fit below its cap where a refit is feasible, and the ceiling holds
     /// where it is not, or between the check's grid points.

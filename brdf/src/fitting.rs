@@ -356,9 +356,11 @@ fn measured_peaks(samples: &Samples) -> Peaks {
 }
 
 /// The fit's ceiling: [`CEILING_OVER_PEAK`] times each channel's trusted
-/// peak, raised to the largest measured value anywhere (so that at a sample
-/// the ceiling only brings an overshooting value nearer its measurement,
-/// and a value inside its interval stays inside) and, in RGB mode, to the
+/// peak, raised, with plain intervals, to the largest measured value
+/// anywhere (so that at a sample the ceiling only brings an overshooting
+/// value nearer its measurement, and a value inside its interval stays
+/// inside; perceptual intervals beyond 80 degrees start at zero, so a value
+/// inside stays inside without it) and, in RGB mode, to the
 /// channel's cap (so that it never holds a fit below the cap check's own
 /// limit). None when a channel has no positive value.
 fn ceiling(
@@ -374,8 +376,16 @@ fn ceiling(
             ColourMode::Rgb => reports[c].cap.as_ref().map_or(0.0, |k| k.cap),
             _ => 0.0,
         };
+        // Under the perceptual design a cell beyond 80 degrees has the
+        // interval [0, cap]: a measured value there lies outside what the
+        // fit is held to, and raising the ceiling to it only lets the
+        // untrusted grazing values brighten the rim.
+        let measured = match settings.design {
+            Some(_) => peaks.trusted[c],
+            None => peaks.anywhere[c],
+        };
         (CEILING_OVER_PEAK * peaks.trusted[c])
-            .max(peaks.anywhere[c])
+            .max(measured)
             .max(cap)
     }))
 }

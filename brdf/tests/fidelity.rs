@@ -94,3 +94,80 @@ fn every_representation_is_bounded_on_the_whole_hemisphere() {
     let e = hemisphere_errors(&table, &ggx, &hemisphere);
     assert!(e.peak_ratio > 2.0, "{e:?}");
 }
+
+/// Lambert with the horizon blow-up of a measured table (a value divided by
+/// a vanishing `cos_i cos_o`), to 30x the trusted values at the horizon.
+struct GrazingBlowUp(brdf::Lambert);
+
+impl Brdf for GrazingBlowUp {
+    fn eval(&self, wi: brdf::Vec3, wo: brdf::Vec3) -> [f64; 3] {
+        let boost = 1.0 + 0.01 / (wi[2] * wo[2]).max(3e-4);
+        self.0.eval(wi, wo).map(|v| v * boost)
+    }
+
+    fn name(&self) -> String {
+        "Lambert blowing up at the horizon".into()
+    }
+}
+
+#[test]
+fn untrusted_grazing_values_raise_the_ceiling_of_plain_intervals_only() {
+    let table = GrazingBlowUp(brdf::Lambert {
+        albedo: [0.6, 0.4, 0.2],
+    });
+    let reduction = Reduction::default()
+        .with_kind(ReductionKind::Full3d)
+        .with_resolution(8, 8)
+        .with_phi_resolution(8)
+        .whole_hemisphere();
+    let fit = FitSettings::default()
+        .with_coeff_range(2, 40)
+        .unwrap()
+        .with_search(Search::Staircase)
+        .with_widening(2.0, 6)
+        .unwrap();
+    let plain = BrdfFitSettings::default()
+        .with_reduction(reduction)
+        .with_rel_tol(0.5)
+        .unwrap()
+        .with_fit_settings(fit.clone());
+    let perceptual = plain
+        .clone()
+        .with_design(PerceptualBounds::default().with_rel_tol(0.2).unwrap());
+    // The table on the fits' grid: its largest value beyond 80 degrees is
+    // far above twice its largest within.
+    let samples = reduction.sample(&table);
+    let cos_80 = 80f64.to_radians().cos();
+    let (mut trusted, mut anywhere) = ([0.0f64; 3], [0.0f64; 3]);
+    for r in &samples.rows {
+        let (wi, wo) = brdf::HalfDiff::pair_at(r.angles);
+        for c in 0..3 {
+            anywhere[c] = anywhere[c].max(r.value[c]);
+            if wi[2].min(wo[2]) > cos_80 {
+                trusted[c] = trusted[c].max(r.value[c]);
+            }
+        }
+    }
+    assert!(
+        (0..3).all(|c| anywhere[c] > 4.0 * trusted[c]),
+        "{trusted:?} {anywhere:?}"
+    );
+    let (fitted, report) = fit_brdf(&table, &perceptual).unwrap();
+    assert!(report.channels.iter().all(|c| c.verified));
+    let ceiling = fitted.ceiling.unwrap();
+    for c in 0..3 {
+        let expected = brdf::CEILING_OVER_PEAK * trusted[c];
+        assert!(
+            (ceiling[c] - expected).abs() <= 1e-9 * expected,
+            "{c}: {ceiling:?} {trusted:?}"
+        );
+    }
+    // Plain intervals hold the grazing values from below: the ceiling
+    // rises to them, so that a value inside its interval stays inside.
+    let (fitted, _) = fit_brdf(&table, &plain).unwrap();
+    let ceiling = fitted.ceiling.unwrap();
+    assert!(
+        (0..3).all(|c| ceiling[c] >= anywhere[c]),
+        "{ceiling:?} {anywhere:?}"
+    );
+}
