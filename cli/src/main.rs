@@ -1,22 +1,17 @@
 //! `ratfit`: fit data with rational functions inside error bounds.
 
-mod args;
 mod batch;
-mod bench;
 mod brdf_cmd;
-mod canvas;
 mod cdf_cmd;
-mod chart;
 mod csv;
 mod demo;
 mod interrupt;
 mod npy;
-mod output;
 mod plot;
-mod png;
-mod progress;
 mod render_cmd;
 mod sphere;
+
+use ratfit_bench::{args, canvas, output, png, progress};
 
 use anyhow::{bail, Context, Result};
 use clap::{Args, Parser, Subcommand};
@@ -133,7 +128,7 @@ enum Command {
     SampleStats(cdf_cmd::StatsArgs),
     /// Benchmarks: `ratfit bench fit [--quick] [--out DIR]` reports error
     /// against run time for every compiled backend.
-    Bench(bench::BenchArgs),
+    Bench(ratfit_bench::BenchArgs),
     /// Render a scene (TOML) to PNG and/or OpenEXR, preparing only the
     /// materials, fits and inverse CDFs the scene needs.
     Render(render_cmd::RenderArgs),
@@ -451,7 +446,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::Batch(args) => batch::run_batch(args)?,
         Command::Cdf(args) => cdf_cmd::run_cdf(args)?,
         Command::SampleStats(args) => cdf_cmd::run_stats(args)?,
-        Command::Bench(args) => bench::run_bench(args)?,
+        Command::Bench(args) => ratfit_bench::run_bench(args)?,
         Command::Render(args) => render_cmd::run_render(args)?,
         Command::Compare(args) => render_cmd::run_compare(args)?,
         Command::Eval {

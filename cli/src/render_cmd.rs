@@ -1,91 +1,13 @@
 //! `ratfit render` and `ratfit compare`.
 
-use anyhow::{bail, Context, Result};
+use anyhow::{bail, Result};
 use clap::Args;
+use ratfit_bench::scene_args::{row_bar, OverrideArgs, NO_GPU};
 use render_cpu::{
-    compare, false_colour, prepare_file, render, Image, RenderOptions, RenderOutput, SamplerKind,
-    Scene,
+    compare, false_colour, prepare_file, render, Image, RenderOptions, RenderOutput, Scene,
 };
 use std::path::{Path, PathBuf};
 use std::time::Instant;
-
-/// Scene overrides shared by `render` and `bench render`.
-#[derive(Args, Clone)]
-pub struct OverrideArgs {
-    /// Image size as WIDTHxHEIGHT.
-    #[arg(long)]
-    pub resolution: Option<String>,
-    /// Samples per pixel (1..=2^20).
-    #[arg(long, value_parser = crate::args::spp)]
-    pub spp: Option<usize>,
-    /// Seed of the random streams.
-    #[arg(long)]
-    pub seed: Option<u64>,
-    /// BRDF sampling: cosine, tabulated or rational.
-    #[arg(long)]
-    pub sampler: Option<SamplerKind>,
-    /// Multiple importance sampling: true or false.
-    #[arg(long)]
-    pub mis: Option<bool>,
-    /// Objects using material A use material B instead (A=B; repeatable).
-    #[arg(long = "swap")]
-    pub swaps: Vec<String>,
-    /// Cache folder for fits and inverse CDFs (default: $RATFIT_CACHE,
-    /// $XDG_CACHE_HOME/ratfit or ~/.cache/ratfit).
-    #[arg(long)]
-    pub cache: Option<PathBuf>,
-    /// Neither read nor write cached fits.
-    #[arg(long)]
-    pub no_cache: bool,
-}
-
-impl OverrideArgs {
-    /// The library's options.
-    pub fn options(&self) -> Result<RenderOptions> {
-        let resolution = self
-            .resolution
-            .as_deref()
-            .map(parse_resolution)
-            .transpose()?;
-        let swaps = self
-            .swaps
-            .iter()
-            .map(|s| {
-                s.split_once('=')
-                    .map(|(a, b)| (a.to_string(), b.to_string()))
-                    .with_context(|| format!("--swap `{s}` is not A=B"))
-            })
-            .collect::<Result<_>>()?;
-        Ok(RenderOptions {
-            resolution,
-            spp: self.spp,
-            seed: self.seed,
-            sampler: self.sampler,
-            mis: self.mis,
-            swaps,
-            cache_dir: self.cache.clone(),
-            no_cache: self.no_cache,
-        })
-    }
-}
-
-/// Parses WIDTHxHEIGHT.
-pub fn parse_resolution(r: &str) -> Result<(usize, usize)> {
-    let (w, h) = r
-        .split_once('x')
-        .with_context(|| format!("--resolution `{r}` is not WIDTHxHEIGHT"))?;
-    Ok((
-        w.trim()
-            .parse()
-            .with_context(|| format!("width in `{r}`"))?,
-        h.trim()
-            .parse()
-            .with_context(|| format!("height in `{r}`"))?,
-    ))
-}
-
-/// What `--gpu` says in a build without the GPU renderer.
-pub const NO_GPU: &str = "this ratfit was built without the GPU renderer; rebuild with `cargo build --release -p ratfit-cli --features gpu`";
 
 /// Options of `ratfit render`.
 #[derive(Args)]
@@ -105,16 +27,6 @@ pub struct RenderArgs {
     /// rays, Lambert and fitted materials, triangles.
     #[arg(long)]
     gpu: bool,
-}
-
-/// A progress bar over image rows on standard error (terminals only).
-pub fn row_bar() -> impl Fn(usize, usize) + Sync {
-    let bar = crate::progress::count_bar("render rows");
-    move |done: usize, total: usize| {
-        if done % 8 == 0 || done == total {
-            bar(done, total);
-        }
-    }
 }
 
 /// Prepares a scene file, printing the log to standard error.

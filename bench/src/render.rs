@@ -3,7 +3,7 @@
 //! against render time (CSV, figure, summary).
 
 use crate::chart::{Figure, Panel};
-use crate::render_cmd::OverrideArgs;
+use crate::scene_args::OverrideArgs;
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use render_cpu::{compare, prepare_file, render, SamplerKind, Scene};
@@ -83,7 +83,7 @@ pub fn run(args: RenderBenchArgs) -> Result<()> {
     reference_scene.integrator.spp = args.reference_spp;
     // A seed none of the compared renders uses.
     reference_scene.integrator.seed = 0x5eed_0000_0001;
-    let reference = render(&reference_scene, &crate::render_cmd::row_bar());
+    let reference = render(&reference_scene, &crate::scene_args::row_bar());
     reference.image.write_exr(&args.out.join("reference.exr"))?;
     println!(
         "reference: {} sampler, {} spp, {:.1} s",

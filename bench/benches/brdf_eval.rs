@@ -4,7 +4,7 @@
 //! up the tabulated MERL grid, on the same one million direction pairs, same
 //! run. Writes `brdf_eval.csv`.
 //!
-//! `cargo bench -p ratfit-cli --bench brdf_eval [-- --out DIR]`
+//! `cargo bench -p ratfit-bench --bench brdf_eval [-- --out DIR]`
 
 use anyhow::Result;
 use brdf::{

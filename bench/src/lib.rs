@@ -1,17 +1,56 @@
-//! `ratfit bench fit`: error against run time for every compiled backend on
-//! the instances of `bench/fit.toml`, written as `results.csv`,
-//! `error_vs_time.png`/`.svg`, `time_vs_samples.svg` and `summary.md`;
-//! `ratfit bench check` re-checks a finished run's outputs.
+//! The benchmarks of ratfit, reached as `ratfit bench ...` or as the
+//! `ratfit-bench` binary, and the command-line plumbing they share with
+//! `ratfit`.
+//!
+//! * `bench fit`: error against run time for every compiled backend on the
+//!   instances of `bench/fit.toml`, written as `results.csv`,
+//!   `error_vs_time.png`/`.svg`, `time_vs_samples.svg` and `summary.md`;
+//!   `bench check` re-checks a finished run's outputs. The backend
+//!   comparison lives in the modules `run`, `instances`, `results` and
+//!   `summary`, apart from the experiments.
+//! * The experiments: `bench fidelity` (every representation judged by its
+//!   renders), `bench render` (samplers at equal samples and time),
+//!   `bench paper` (the paper's rendering experiments), `bench rgl` (every
+//!   RGL file fitted) and `bench gpu` (frames per second on the GPU).
+//! * Shared with `ratfit`: flag parsers ([`args`]), atomic output
+//!   ([`output`]), progress bars ([`progress`]), scene overrides
+//!   ([`scene_args`]), PNG output and a canvas to draw plots on
+//!   ([`png`], [`canvas`]).
+//!
+//! The arguments are clap's, so a program embeds them, as `ratfit bench`
+//! does, and hands them to [`run_bench`]:
+//!
+//! ```
+//! use clap::Parser;
+//!
+//! #[derive(Parser)]
+//! struct Cli {
+//!     #[command(flatten)]
+//!     bench: ratfit_bench::BenchArgs,
+//! }
+//!
+//! assert!(Cli::try_parse_from(["ratfit-bench", "check", "target/bench-quick"]).is_ok());
+//! assert!(Cli::try_parse_from(["ratfit-bench", "no-such-benchmark"]).is_err());
+//! ```
+
+#![warn(missing_docs)]
 
 mod aaa;
+pub mod args;
+pub mod canvas;
+mod chart;
 mod fidelity;
 mod gpu;
 mod instances;
+pub mod output;
 mod paper;
+pub mod png;
+pub mod progress;
 mod render;
 mod results;
 mod rgl;
 mod run;
+pub mod scene_args;
 mod summary;
 
 use anyhow::{bail, Context, Result};

@@ -8,7 +8,7 @@ use serde::Deserialize;
 use std::path::{Path, PathBuf};
 
 /// The instance list shipped with the repository.
-pub const DEFAULT_INSTANCES: &str = include_str!("../../../bench/fit.toml");
+pub const DEFAULT_INSTANCES: &str = include_str!("../fit.toml");
 
 /// A whole instance file.
 #[derive(Debug, Deserialize)]

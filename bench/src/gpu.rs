@@ -43,7 +43,7 @@ pub struct GpuBenchArgs {
 /// Runs `ratfit bench gpu`.
 #[cfg(not(feature = "gpu"))]
 pub fn run(_args: GpuBenchArgs) -> Result<()> {
-    anyhow::bail!("{}", crate::render_cmd::NO_GPU)
+    anyhow::bail!("{}", crate::scene_args::NO_GPU)
 }
 
 #[cfg(feature = "gpu")]
@@ -53,7 +53,7 @@ pub use imp::run;
 mod imp {
     use super::GpuBenchArgs;
     use crate::chart::{Figure, Panel};
-    use crate::render_cmd::parse_resolution;
+    use crate::scene_args::parse_resolution;
     use anyhow::{bail, Context, Result};
     use brdf::CompactBrdf;
     use rayon::prelude::*;

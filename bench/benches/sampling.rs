@@ -6,7 +6,7 @@
 //! sample, log axes, one colour per sampler), and prints per material the
 //! variance ratios rational / tabulated and cosine / rational.
 //!
-//! `cargo bench -p ratfit-cli --bench sampling -- [--quick] [--out DIR]`
+//! `cargo bench -p ratfit-bench --bench sampling -- [--quick] [--out DIR]`
 //! (a relative DIR is taken from `cli/`, where cargo runs benchmarks).
 
 use anyhow::{Context, Result};
