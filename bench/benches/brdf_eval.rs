@@ -1,19 +1,34 @@
 //! Throughput of evaluating a fitted BRDF (the f32 compact path pair by
 //! pair and in batches of 8 lanes, the f64 path pair by pair and in
 //! batches; all cores) against looking
-//! up the tabulated MERL grid, on the same one million direction pairs, same
-//! run. Writes `brdf_eval.csv`.
+//! up the tabulated MERL grid, on the same one million direction pairs (a
+//! hundred thousand with `--quick`), same run. Writes `brdf_eval.csv` and
+//! `brdf_eval.svg` / `.png` (evaluations per second against bytes, log
+//! axes, one colour per path).
 //!
-//! `cargo bench -p ratfit-bench --bench brdf_eval [-- --out DIR]`
+//! `cargo bench -p ratfit-bench --bench brdf_eval -- [--quick] [--out DIR]`
 
-use anyhow::Result;
+use anyhow::{Context, Result};
 use brdf::{
     compact::to_f32, fit_brdf, from_spherical, BatchedFit, Brdf, BrdfFitSettings, CompactBrdf,
     CookTorranceGgx, MerlBrdf, TabulateOptions,
 };
+use ratfit_bench::bench_target::TargetArgs;
+use ratfit_bench::chart::{Figure, Panel};
 use rayon::prelude::*;
-use std::io::Write;
+use serde::Serialize;
 use std::time::Instant;
+
+/// One row of `brdf_eval.csv`.
+#[derive(Serialize)]
+struct Row<'a> {
+    path: &'a str,
+    pairs: usize,
+    median_s: f64,
+    evals_per_s: f64,
+    coefficients: usize,
+    bytes: usize,
+}
 
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
@@ -21,16 +36,7 @@ fn median(mut v: Vec<f64>) -> f64 {
 }
 
 fn main() -> Result<()> {
-    let args: Vec<String> = std::env::args().collect();
-    let out = args
-        .iter()
-        .position(|a| a == "--out")
-        .and_then(|i| args.get(i + 1))
-        .map_or_else(
-            || std::path::PathBuf::from("target/bench"),
-            std::path::PathBuf::from,
-        );
-    std::fs::create_dir_all(&out)?;
+    let TargetArgs { quick, out, .. } = TargetArgs::from_env()?;
     let truth = CookTorranceGgx {
         kd: [0.03, 0.08, 0.25],
         f0: [0.04; 3],
@@ -46,7 +52,7 @@ fn main() -> Result<()> {
     );
     let (fitted, report) = fit_brdf(&table, &BrdfFitSettings::default().with_baselines(false))?;
     let compact = CompactBrdf::from_fitted(&fitted);
-    let n = 1_000_000;
+    let n = if quick { 100_000 } else { 1_000_000 };
     let pairs: Vec<_> = (0..n)
         .map(|k| {
             let u = |s: f64| ((k as f64 + 0.5) * s).fract();
@@ -107,16 +113,43 @@ fn main() -> Result<()> {
     time("MERL table lookup, f64", &|| {
         pairs.par_iter().map(|&(a, b)| table.eval(a, b)[0]).sum()
     });
-    let mut csv = std::fs::File::create(out.join("brdf_eval.csv"))?;
-    writeln!(csv, "path,pairs,median_s,evals_per_s,coefficients,bytes")?;
-    for (name, m) in &rows {
-        let (coef, bytes) = if name.starts_with("MERL") {
+    let csv_path = out.join("brdf_eval.csv");
+    let mut csv = csv::Writer::from_path(&csv_path)
+        .with_context(|| format!("cannot write {}", csv_path.display()))?;
+    let mut panel = Panel {
+        title: format!("{n} pairs, {} threads", rayon::current_num_threads()),
+        ..Panel::default()
+    };
+    for (k, (name, m)) in rows.iter().enumerate() {
+        let (coefficients, bytes) = if name.starts_with("MERL") {
             (0, brdf::merl::FILE_SIZE)
         } else {
             (fitted.coefficients(), fitted.byte_size_f32())
         };
-        writeln!(csv, "{name},{n},{m:e},{:e},{coef},{bytes}", n as f64 / m)?;
+        csv.serialize(Row {
+            path: name,
+            pairs: n,
+            median_s: *m,
+            evals_per_s: n as f64 / m,
+            coefficients,
+            bytes,
+        })?;
+        panel.points.push((k, bytes as f64, n as f64 / m));
     }
+    csv.flush()?;
+    let figure = Figure {
+        title: "Fitted BRDF against table lookup".into(),
+        x_label: "bytes of the representation".into(),
+        y_label: "evaluations per second (median)".into(),
+        // The paths in the order timed above.
+        legend: ["f32", "f32 x8", "f64", "f64 x8", "MERL lookup"]
+            .map(String::from)
+            .to_vec(),
+        panels: vec![panel],
+        columns: 1,
+    };
+    ratfit_bench::output::write(out.join("brdf_eval.svg"), figure.svg())?;
+    figure.png(&out.join("brdf_eval.png"))?;
     println!(
         "fit: {} coefficients, {} bytes; max rel error per channel {:?}",
         fitted.coefficients(),

@@ -96,6 +96,11 @@ struct Layout {
 }
 
 impl Figure {
+    /// Whether a panel marks a Pareto front (the legend names it then).
+    fn has_front(&self) -> bool {
+        self.panels.iter().any(|p| !p.front.is_empty())
+    }
+
     fn layout(&self) -> Layout {
         let cols = self.columns.max(1).min(self.panels.len().max(1));
         let rows = self.panels.len().div_ceil(cols).max(1);
@@ -156,11 +161,13 @@ impl Figure {
             );
             x += 24.0 + 7.0 * name.len() as f64;
         }
-        let _ = writeln!(
-            s,
-            "<text x=\"{}\" y=\"40\">black rings and line: Pareto front</text>",
-            x + 10.0
-        );
+        if self.has_front() {
+            let _ = writeln!(
+                s,
+                "<text x=\"{}\" y=\"40\">black rings and line: Pareto front</text>",
+                x + 10.0
+            );
+        }
         for (k, p) in self.panels.iter().enumerate() {
             let sc = self.scales(k);
             let _ = writeln!(
@@ -251,8 +258,10 @@ impl Figure {
             c.text(x + 12, 33, name, 2, black);
             x += 28 + text_width(name, 2);
         }
-        c.ring(x as f64 + 4.0, 37.0, 5, black);
-        c.text(x + 14, 33, "PARETO FRONT", 2, black);
+        if self.has_front() {
+            c.ring(x as f64 + 4.0, 37.0, 5, black);
+            c.text(x + 14, 33, "PARETO FRONT", 2, black);
+        }
         for (k, p) in self.panels.iter().enumerate() {
             let sc = self.scales(k);
             c.text(sc.left as i64, sc.top as i64 - 16, &p.title, 2, black);

@@ -16,6 +16,10 @@
 //!   ([`output`]), progress bars ([`progress`]), scene overrides
 //!   ([`scene_args`]), PNG output and a canvas to draw plots on
 //!   ([`png`], [`canvas`]).
+//! * For the benchmark targets `brdf_eval` and `sampling` (`cargo bench -p
+//!   ratfit-bench --bench NAME -- [--quick] [--out DIR]`): their flags
+//!   ([`bench_target`]) and the log-log charts every benchmark draws
+//!   ([`chart`]).
 //!
 //! The arguments are clap's, so a program embeds them, as `ratfit bench`
 //! does, and hands them to [`run_bench`]:
@@ -37,8 +41,9 @@
 
 mod aaa;
 pub mod args;
+pub mod bench_target;
 pub mod canvas;
-mod chart;
+pub mod chart;
 mod fidelity;
 mod gpu;
 mod instances;
