@@ -7,7 +7,7 @@ use super::instances::{Instance, InstanceFile, Sampled};
 use anyhow::Result;
 use rational_core::verify::{error_figures, verify};
 use rational_core::{
-    fit, fit_split, Backend, FitError, FitSettings, IntervalData, PoleControl, Selection,
+    fit, Backend, FitError, FitSettings, Fitter, IntervalData, PoleControl, Selection,
 };
 use std::collections::HashMap;
 use std::path::Path;
@@ -299,9 +299,8 @@ fn split_row(row: &mut Row, data: &IntervalData, backend: Backend, budget: f64, 
         Ok(s) => s,
         Err(e) => return row.fail(e),
     };
-    let t = timed(budget, max_reps, || {
-        fit_split(data, row.n_p, row.n_q, &settings)
-    });
+    let fitter = Fitter::new(data).settings(settings);
+    let t = timed(budget, max_reps, || fitter.split(row.n_p, row.n_q));
     match t.last {
         Ok(f) => {
             set_times(row, &t.times, t.reps);

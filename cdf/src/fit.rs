@@ -13,8 +13,7 @@ use crate::report::{CdfFitReport, ComponentReport};
 use crate::settings::CdfFitSettings;
 use crate::{CdfError, CdfTable};
 use rational_core::{
-    fit_split_with_constraints, Domain, FitError, FitSettings, IntervalData, PoleControl,
-    RationalFunction,
+    Domain, FitError, FitSettings, Fitter, IntervalData, PoleControl, RationalFunction,
 };
 use rayon::prelude::*;
 use std::f64::consts::FRAC_PI_2;
@@ -307,9 +306,12 @@ fn probe(a: &Assembled, engine: &FitSettings, n: usize) -> Result<Option<Found>,
         .map(|f| ((f * n as f64).round() as usize).clamp(1, n - 1))
         .collect();
     splits.dedup();
+    let fitter = Fitter::new(&a.data)
+        .settings(engine.clone())
+        .constraints(&a.monotone);
     let fits = splits
         .par_iter()
-        .map(|&np| fit_split_with_constraints(&a.data, np, n - np, engine, &a.monotone))
+        .map(|&np| fitter.split(np, n - np))
         .collect::<Result<Vec<_>, FitError>>()?;
     Ok(fits
         .into_iter()

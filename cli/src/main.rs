@@ -16,7 +16,7 @@ use ratfit_bench::{args, canvas, output, png, progress};
 use anyhow::{bail, Context, Result};
 use clap::{Args, Parser, Subcommand};
 use rational_core::{
-    fit, split_problem, Backend, BasisFamily, FitReport, FitSettings, IntervalData, PoleControl,
+    fit, Backend, BasisFamily, FitReport, FitSettings, Fitter, IntervalData, PoleControl,
     RationalFunction, Search, Selection,
 };
 use std::path::{Path, PathBuf};
@@ -376,7 +376,7 @@ fn run_dump_qp(data: DataArgs, basis: BasisFamily, split: &str, out: &Path) -> R
         .with_family(basis)
         .with_pole_control(PoleControl::None)
         .with_value_scaling(false);
-    let p = split_problem(&d, np, nq, &settings)?;
+    let p = Fitter::new(&d).settings(settings).problem(np, nq)?;
     std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
     npy::write_f64(&out.join("G.npy"), &[p.rows(), p.cols()], &p.g())?;
     npy::write_f64(&out.join("h.npy"), &[p.rows()], p.h())?;

@@ -11,7 +11,7 @@
 //! cargo run --release -p rational-core --example extra_constraints
 //! ```
 
-use rational_core::{fit_with_constraints, Basis, ExtraConstraints, FitReport, FitSettings};
+use rational_core::{Basis, ExtraConstraints, FitReport, FitSettings, Fitter};
 use rational_core::{IntervalData, RationalFunction};
 
 /// `p > 0` at `grid` (1-D points).
@@ -54,8 +54,12 @@ fn fits() -> (FitReport, FitReport) {
     let settings = FitSettings::default();
     let plain = rational_core::fit(&data, &settings).expect("a fit");
     let grid = (0..=400).map(|i| -1.0 + i as f64 / 200.0).collect();
-    let positive =
-        fit_with_constraints(&data, &settings, &PositiveOn { grid }).expect("a positive fit");
+    let positive_on_grid = PositiveOn { grid };
+    let positive = Fitter::new(&data)
+        .settings(settings)
+        .constraints(&positive_on_grid)
+        .fit()
+        .expect("a positive fit");
     (plain, positive)
 }
 

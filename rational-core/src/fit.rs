@@ -504,25 +504,8 @@ fn check_sizes(data: &IntervalData, settings: &FitSettings) -> Result<usize, Fit
     Ok(settings.max_coeffs.min(data.len()))
 }
 
-/// Solves the single split P(n_p, n_q) (no sweep), with the settings' basis,
-/// backend and pole control.
-///
-/// # Errors
-/// Invalid data or settings, fewer samples than `n_p + n_q`, backend errors.
-pub fn fit_split(
-    data: &IntervalData,
-    n_p: usize,
-    n_q: usize,
-    settings: &FitSettings,
-) -> Result<SplitFit, FitError> {
-    fit_split_with_constraints(data, n_p, n_q, settings, &NoExtraConstraints)
-}
-
-/// As [`fit_split`] with caller-supplied extra constraint rows.
-///
-/// # Errors
-/// As [`fit_split`].
-pub fn fit_split_with_constraints(
+/// [`crate::Fitter::split`].
+pub(crate) fn solve_split(
     data: &IntervalData,
     n_p: usize,
     n_q: usize,
@@ -545,16 +528,13 @@ pub fn fit_split_with_constraints(
     prep.solve(data, n_p, n_q, true, &mut Vec::new())
 }
 
-/// The P(n_p, n_q) instance that [`fit_split`] solves first, for
-/// cross-checking with other solvers.
-///
-/// # Errors
-/// As [`fit_split`].
-pub fn split_problem(
+/// [`crate::Fitter::problem`].
+pub(crate) fn split_problem(
     data: &IntervalData,
     n_p: usize,
     n_q: usize,
     settings: &FitSettings,
+    extra: &dyn ExtraConstraints,
 ) -> Result<LdpProblem, FitError> {
     if data.len() < n_p + n_q {
         return Err(FitError::TooFewSamples {
@@ -562,30 +542,23 @@ pub fn split_problem(
             coeffs: n_p + n_q,
         });
     }
-    let prep = Prepared::new(data, settings, &NoExtraConstraints, n_p.max(n_q).max(1))?;
+    let prep = Prepared::new(data, settings, extra, n_p.max(n_q).max(1))?;
     let rows = prep.base_rows(n_p, n_q);
     prep.problem(data, n_p, n_q, &rows)
 }
 
-/// Fits `data` by the sweep: by default, for each budget `N` from the
-/// minimum, every split `(n_p, N - n_p)` in parallel; the first budget with
-/// an accepted split wins and the settings' criterion picks among its
-/// splits ([`Search::Staircase`] finds the same splits with far fewer
-/// solves). If no budget up to the maximum works, the intervals are widened
-/// (if allowed) and the sweep restarts. The returned fit is verified in f64.
+/// Fits `data` by the sweep with `settings`: shorthand for
+/// `Fitter::new(data).settings(settings.clone()).fit()` ([`crate::Fitter`]
+/// adds extra constraints, a single split and the program of a split).
 ///
 /// # Errors
-/// Invalid data or settings, too few samples, backend errors, or
-/// [`FitError::NoFeasibleFit`].
+/// As [`crate::Fitter::fit`].
 pub fn fit(data: &IntervalData, settings: &FitSettings) -> Result<FitReport, FitError> {
-    fit_with_constraints(data, settings, &NoExtraConstraints)
+    sweep(data, settings, &NoExtraConstraints)
 }
 
-/// As [`fit`] with caller-supplied extra constraint rows.
-///
-/// # Errors
-/// As [`fit`].
-pub fn fit_with_constraints(
+/// [`crate::Fitter::fit`].
+pub(crate) fn sweep(
     data: &IntervalData,
     settings: &FitSettings,
     extra: &dyn ExtraConstraints,

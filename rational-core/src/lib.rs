@@ -10,8 +10,9 @@
 //! for every fit it returns, whatever the solver reported.
 //!
 //! The crate knows nothing about reflectance: it offers multivariate bases
-//! ([`Basis`]), interval data ([`IntervalData`]), [`RationalFunction`], the
-//! problem builder, the sweep over coefficient budgets ([`fit`]), pole
+//! ([`Basis`]), interval data ([`IntervalData`]), [`RationalFunction`], one
+//! way to fit ([`Fitter`]: the sweep over coefficient budgets, a single
+//! split, or the program a split solves; [`fit`] is its shorthand), pole
 //! control ([`PoleControl`]) and verification.
 //!
 //! ```
@@ -37,6 +38,7 @@ mod basis;
 mod data;
 mod error;
 mod fit;
+mod fitter;
 pub mod poles;
 mod problem;
 mod rational;
@@ -50,13 +52,11 @@ pub use basis::{
 };
 pub use data::IntervalData;
 pub use error::FitError;
-pub use fit::{
-    fit, fit_split, fit_split_with_constraints, fit_with_constraints, split_problem, SplitFit,
-};
+pub use fit::{fit, SplitFit};
+pub use fitter::Fitter;
 pub use poles::PoleControl;
 pub use problem::{
-    blocked_triangular_factor, build_problem, build_problem_scaled, condition_number, DesignMatrix,
-    ExtraConstraints, NoExtraConstraints, SharedDesign,
+    blocked_triangular_factor, condition_number, ExtraConstraints, NoExtraConstraints, SharedDesign,
 };
 pub use qp_backends::{Backend, SolveOptions, Status};
 pub use rational::RationalFunction;

@@ -11,7 +11,7 @@ use std::sync::{Arc, RwLock};
 /// and shared by every split of a sweep: the problems of the splits generate
 /// their rows from it instead of storing them.
 #[derive(Debug, Clone)]
-pub struct DesignMatrix {
+pub(crate) struct DesignMatrix {
     cols: usize,
     values: Arc<[f64]>,
 }
@@ -29,11 +29,6 @@ impl DesignMatrix {
             .enumerate()
             .for_each(|(i, row)| basis.eval_into(data.point(i), row));
         Self { cols, values }
-    }
-
-    /// Values at sample `i`.
-    pub fn row(&self, i: usize) -> &[f64] {
-        &self.values[i * self.cols..(i + 1) * self.cols]
     }
 
     /// Number of basis functions.
@@ -126,40 +121,16 @@ impl ExtraConstraints for NoExtraConstraints {
 
 /// Builds P(n_p, n_q): for sample `i` the rows `(phi_p, -lo_i phi_q)` and
 /// `(-phi_p, hi_i phi_q)`, then `extra` rows, each divided by its norm, with
-/// `h = 1`.
+/// `h = 1`; the bounds are divided by `value_scale` (and the numerator part
+/// of every extra row multiplied by it), so the solution is
+/// `(a / value_scale, b)`: dividing by the data's magnitude makes the fit
+/// independent of the data's units (the least-norm objective is not). The
+/// rows are generated from `design` by the solver
+/// (`LdpProblem::from_intervals`), so no split stores its `G`.
 ///
 /// # Errors
-/// A split larger than the design matrix, or extra rows of the wrong length.
-pub fn build_problem(
-    design: &DesignMatrix,
-    data: &IntervalData,
-    n_p: usize,
-    n_q: usize,
-    extra: &[Vec<f64>],
-) -> Result<LdpProblem, FitError> {
-    build_problem_scaled(design, data, n_p, n_q, extra, 1.0)
-}
-
-/// As [`build_problem`] with the bounds divided by `value_scale` (and the
-/// numerator part of every extra row multiplied by it): the solution is
-/// `(a / value_scale, b)`. Dividing by the data's magnitude makes the fit
-/// independent of the data's units (the least-norm objective is not).
-///
-/// # Errors
-/// As [`build_problem`], plus a scale that is not finite and positive.
-pub fn build_problem_scaled(
-    design: &DesignMatrix,
-    data: &IntervalData,
-    n_p: usize,
-    n_q: usize,
-    extra: &[Vec<f64>],
-    value_scale: f64,
-) -> Result<LdpProblem, FitError> {
-    build_problem_in(design, data, n_p, n_q, extra, value_scale)
-}
-
-/// As [`build_problem_scaled`]; the rows are generated from `design` by the
-/// solver (`LdpProblem::from_intervals`), so no split stores its `G`.
+/// A split larger than the design matrix, extra rows of the wrong length,
+/// or a scale that is not finite and positive.
 pub(crate) fn build_problem_in(
     design: &DesignMatrix,
     data: &IntervalData,
@@ -325,7 +296,7 @@ mod tests {
         )
         .unwrap();
         let design = DesignMatrix::new(&basis, &data);
-        let p = build_problem(&design, &data, 2, 1, &[]).unwrap();
+        let p = build_problem_in(&design, &data, 2, 1, &[], 1.0).unwrap();
         assert_eq!(p.rows(), 6);
         for j in 0..6 {
             let n: f64 = p.row(j).iter().map(|v| v * v).sum::<f64>().sqrt();
@@ -366,7 +337,7 @@ mod tests {
         )
         .unwrap();
         let design = DesignMatrix::new(&basis, &data);
-        let p = build_problem(&design, &data, 6, 4, &[]).unwrap();
+        let p = build_problem_in(&design, &data, 6, 4, &[], 1.0).unwrap();
         let g = p.g();
         let whole = MatRef::from_row_major_slice(&g, p.rows(), p.cols())
             .qr()

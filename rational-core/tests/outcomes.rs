@@ -1,7 +1,7 @@
 //! Bad input gets a named error; an impossible fit is reported as such;
 //! widening recovers a fit when it is allowed.
 
-use rational_core::{fit, fit_split, Backend, FitError, FitSettings, IntervalData, PoleControl};
+use rational_core::{fit, Backend, FitError, FitSettings, Fitter, IntervalData, PoleControl};
 
 fn line(n: usize) -> Vec<f64> {
     (0..n).map(|i| i as f64 / (n - 1).max(1) as f64).collect()
@@ -19,7 +19,7 @@ fn too_few_samples_is_named() {
     ));
     let d = IntervalData::from_values_relative(1, line(5), vec![1.0; 5], 0.1).unwrap();
     assert!(matches!(
-        fit_split(&d, 4, 3, &FitSettings::default()),
+        Fitter::new(&d).split(4, 3),
         Err(FitError::TooFewSamples {
             samples: 5,
             coeffs: 7

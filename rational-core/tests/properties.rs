@@ -7,7 +7,7 @@
 use proptest::prelude::*;
 use proptest::test_runner::RngSeed;
 use rational_core::{
-    fit_split, Backend, Basis, BasisFamily, Domain, FitSettings, IntervalData, PoleControl,
+    Backend, Basis, BasisFamily, Domain, FitSettings, Fitter, IntervalData, PoleControl,
     RationalFunction,
 };
 
@@ -68,7 +68,7 @@ proptest! {
         let hi: Vec<f64> = v.iter().zip(&half).map(|(v, h)| v + h).collect();
         let data = IntervalData::new(dim, pts, lo.clone(), hi.clone()).unwrap();
         let settings = FitSettings::default().with_family(family);
-        let f = fit_split(&data, n_p, n_q, &settings).unwrap();
+        let f = Fitter::new(&data).settings(settings.clone()).split(n_p, n_q).unwrap();
         prop_assert!(f.summary.accepted, "generating split rejected: {:?}", f.summary);
         let r = f.function.unwrap();
         // Independent check: inside every interval, q > 0 at every sample.
@@ -95,7 +95,7 @@ proptest! {
         let v: Vec<f64> = pts.iter().map(|x| g.eval(&[*x])).collect();
         let data = IntervalData::from_values_absolute(1, pts, v, 0.05).unwrap();
         let settings = FitSettings::default().with_pole_control(PoleControl::Bernstein { elevation: 4 });
-        let f = fit_split(&data, n_p, 3, &settings).unwrap();
+        let f = Fitter::new(&data).settings(settings.clone()).split(n_p, 3).unwrap();
         if f.summary.accepted {
             prop_assert_eq!(f.poles.certified, Some(true));
             let r = f.function.unwrap();
@@ -120,10 +120,10 @@ proptest! {
         let x: Vec<f64> = (0..200).map(|i| -1.0 + 3.0 * i as f64 / 199.0).collect();
         let v: Vec<f64> = x.iter().map(|x| g.eval(&[*x])).collect();
         let data = IntervalData::from_values_absolute(1, x, v, width).unwrap();
-        let native = fit_split(&data, fit_np, fit_nq, &FitSettings::default().with_pole_control(PoleControl::None)).unwrap();
+        let native = Fitter::new(&data).settings(FitSettings::default().with_pole_control(PoleControl::None)).split(fit_np, fit_nq).unwrap();
         for backend in Backend::available() {
             let s = FitSettings::default().with_pole_control(PoleControl::None).with_backend(backend).unwrap();
-            let other = fit_split(&data, fit_np, fit_nq, &s).unwrap();
+            let other = Fitter::new(&data).settings(s.clone()).split(fit_np, fit_nq).unwrap();
             let (dn, dother) = (native.summary.depth, other.summary.depth);
             // Decisive instances only: a depth below 1e-6 is at the edge of
             // every backend's tolerance.

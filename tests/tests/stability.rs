@@ -3,7 +3,7 @@
 //! asserted) or a named error. Never a panic, never a silently wrong fit.
 
 use rational_core::{
-    fit, fit_split, BasisFamily, FitError, FitReport, FitSettings, IntervalData, PoleControl,
+    fit, BasisFamily, FitError, FitReport, FitSettings, Fitter, IntervalData, PoleControl,
     Selection,
 };
 
@@ -113,7 +113,10 @@ fn runge_with_monomials_is_verified_or_refused_never_wrong() {
         let s = FitSettings::default()
             .with_family(family)
             .with_pole_control(PoleControl::None);
-        let f = fit_split(&data, 12, 12, &s).unwrap();
+        let f = Fitter::new(&data)
+            .settings(s.clone())
+            .split(12, 12)
+            .unwrap();
         if f.summary.accepted {
             let v = f.verification.expect("accepted fits are verified");
             assert!(v.satisfied && v.min_q > 0.0, "{family}");
@@ -215,7 +218,7 @@ fn a_single_sample_is_too_few() {
 fn more_coefficients_than_samples_is_refused() {
     let d = relative(grid(5, 0.0, 1.0), |t| 1.0 + t, 0.1);
     assert!(matches!(
-        fit_split(&d, 4, 4, &FitSettings::default()),
+        Fitter::new(&d).split(4, 4),
         Err(FitError::TooFewSamples {
             samples: 5,
             coeffs: 8
