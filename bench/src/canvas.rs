@@ -149,9 +149,15 @@ impl Canvas {
         }
     }
 
-    /// Writes the canvas as PNG (values taken as display-ready).
+    /// Writes the canvas as PNG (values taken as display-ready, clamped to
+    /// [0, 1]).
     pub fn save_png(&self, path: &Path) -> Result<()> {
-        crate::png::write_srgb_raw(path, self.w, self.h, &self.px)
+        let bytes: Vec<u8> = self
+            .px
+            .iter()
+            .flat_map(|p| p.map(|v| (v.clamp(0.0, 1.0) * 255.0 + 0.5) as u8))
+            .collect();
+        Ok(render_cpu::write_png(path, self.w, self.h, &bytes)?)
     }
 }
 

@@ -14,8 +14,7 @@
 //!   RGL file fitted) and `bench gpu` (frames per second on the GPU).
 //! * Shared with `ratfit`: flag parsers ([`args`]), atomic output
 //!   ([`output`]), progress bars ([`progress`]), scene overrides
-//!   ([`scene_args`]), PNG output and a canvas to draw plots on
-//!   ([`png`], [`canvas`]).
+//!   ([`scene_args`]) and a canvas to draw plots on ([`canvas`]).
 //! * For the benchmark targets `brdf_eval` and `sampling` (`cargo bench -p
 //!   ratfit-bench --bench NAME -- [--quick] [--out DIR]`): their flags
 //!   ([`bench_target`]) and the log-log charts every benchmark draws
@@ -49,7 +48,6 @@ mod gpu;
 mod instances;
 pub mod output;
 mod paper;
-pub mod png;
 pub mod progress;
 mod render;
 mod results;

@@ -6,6 +6,9 @@ use rational_core::{fit, FitSettings, IntervalData};
 use std::f64::consts::PI;
 use std::path::Path;
 
+/// CIEDE2000 drawn white in the demo's difference images.
+const DIFFERENCE_FULL_SCALE: f64 = 5.0;
+
 /// Blinn-Phong-like lobe over the half angle (radians), exponent `n`.
 fn lobe(theta_h: f64, n: f64) -> f64 {
     0.05 / PI + (n + 8.0) / (8.0 * PI) * theta_h.cos().powf(n)
@@ -83,18 +86,8 @@ pub fn run_brdf(out: &Path) -> Result<()> {
         fitted.byte_size_f32(),
         brdf::merl::FILE_SIZE
     );
-    let size = 256;
-    let lights = crate::sphere::default_lights();
-    let img = crate::sphere::render(&measured, &fitted, size, &lights);
-    std::fs::create_dir_all(out)?;
-    let path = out.join("demo-sphere.png");
-    crate::png::write_linear(&path, size, size, &img)?;
-    println!(
-        "  wrote {} (left: measured table, right: rational fit)",
-        path.display()
-    );
     // What a user judges: the fit's renders against the table's on the two
-    // validation scenes of `ratfit bench fidelity`.
+    // validation scenes of `ratfit bench fidelity`, side by side.
     let table: std::sync::Arc<dyn brdf::Brdf> = std::sync::Arc::new(measured);
     let validation = render_cpu::fidelity::ValidationSettings {
         size: 96,
@@ -110,5 +103,22 @@ pub fn run_brdf(out: &Path) -> Result<()> {
         validator.noise[0].mean_de,
         validator.noise[1].mean_de
     );
+    std::fs::create_dir_all(out)?;
+    for (k, scene) in render_cpu::fidelity::ValidationScene::ALL
+        .iter()
+        .enumerate()
+    {
+        let (w, h, rgb) = render_cpu::fidelity::side_by_side(
+            &validator.references()[k],
+            &errors.images[k],
+            DIFFERENCE_FULL_SCALE,
+        )?;
+        let path = out.join(format!("demo-{}.png", scene.name()));
+        render_cpu::write_png(&path, w, h, &rgb)?;
+        println!(
+            "  wrote {} (left: measured table; middle: rational fit; right: CIEDE2000, white at {DIFFERENCE_FULL_SCALE})",
+            path.display()
+        );
+    }
     Ok(())
 }

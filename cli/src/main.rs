@@ -9,9 +9,8 @@ mod interrupt;
 mod npy;
 mod plot;
 mod render_cmd;
-mod sphere;
 
-use ratfit_bench::{args, canvas, output, png, progress};
+use ratfit_bench::{args, canvas, output, progress};
 
 use anyhow::{bail, Context, Result};
 use clap::{Args, Parser, Subcommand};

@@ -281,8 +281,10 @@ fn brdf_demo_fits_renders_and_exports() {
     );
     let text = String::from_utf8_lossy(&out.stdout);
     assert_eq!(text.matches("       yes ").count(), 3, "{text}");
-    let png = std::fs::read(dir.join("demo-sphere.png")).unwrap();
-    assert!(png.starts_with(b"\x89PNG"));
+    for scene in ["lights", "sky"] {
+        let png = std::fs::read(dir.join(format!("demo-{scene}.png"))).unwrap();
+        assert!(png.starts_with(b"\x89PNG"), "demo-{scene}.png");
+    }
     std::fs::remove_dir_all(dir).ok();
 }
 

@@ -292,6 +292,34 @@ impl Validator {
     }
 }
 
+/// The reference, the candidate and their CIEDE2000 map (false colour,
+/// white at `de_full_scale`) side by side as one sRGB image of three times
+/// the width: `(width, height, rgb8)`, tone-mapped as `Image::write` does at
+/// unit exposure.
+///
+/// # Errors
+/// Images of different sizes.
+pub fn side_by_side(
+    reference: &Image,
+    candidate: &Image,
+    de_full_scale: f64,
+) -> Result<(usize, usize, Vec<u8>), RenderError> {
+    let (_, map) = compare(reference, candidate, 1.0)?;
+    let panels = [
+        reference.to_srgb8(1.0),
+        candidate.to_srgb8(1.0),
+        crate::false_colour(&map, de_full_scale),
+    ];
+    let (w, h) = (reference.width, reference.height);
+    let mut rgb = Vec::with_capacity(panels.iter().map(Vec::len).sum());
+    for y in 0..h {
+        for panel in &panels {
+            rgb.extend_from_slice(&panel[3 * w * y..3 * w * (y + 1)]);
+        }
+    }
+    Ok((3 * w, h, rgb))
+}
+
 /// Which reductions [`fit_to_target`] may use.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]
@@ -636,6 +664,20 @@ pub fn fit_to_target(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn side_by_side_puts_reference_candidate_and_difference_in_a_row() {
+        let a = Image::new(2, 1, vec![[0.5; 3], [0.0; 3]]);
+        let b = Image::new(2, 1, vec![[0.5; 3], [0.2, 0.0, 0.0]]);
+        let (w, h, rgb) = side_by_side(&a, &b, 5.0).unwrap();
+        assert_eq!((w, h, rgb.len()), (6, 1, 18));
+        assert_eq!(&rgb[..6], &a.to_srgb8(1.0)[..]);
+        assert_eq!(&rgb[6..12], &b.to_srgb8(1.0)[..]);
+        // Equal pixels are black in the difference, different ones not.
+        assert_eq!(&rgb[12..15], &[0, 0, 0]);
+        assert!(rgb[15..18].iter().any(|&v| v > 0));
+        assert!(side_by_side(&a, &Image::new(1, 1, vec![[0.5; 3]]), 5.0).is_err());
+    }
 
     #[test]
     fn non_finite_pixels_are_counted_and_do_not_poison_the_mean() {
