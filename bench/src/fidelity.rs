@@ -648,7 +648,60 @@ fn measure_material(judge: &Judge) -> Result<Vec<Row>> {
     Ok(material_rows)
 }
 
-const HEADER: &str = "material,representation,bytes,fit_s,lights_mean_de,lights_p99_de,sky_mean_de,sky_p99_de,median_rel_0_70,p90_rel_0_70,max_rel_0_70,median_rel_70_80,p90_rel_70_80,max_rel_70_80,median_rel_80_90,p90_rel_80_90,max_rel_80_90,median_rel_below_80,peak_ratio,note";
+/// One row of `results.csv`: the figures of one representation of one
+/// material.
+#[derive(serde::Serialize, serde::Deserialize)]
+struct CsvRow {
+    material: String,
+    representation: String,
+    bytes: usize,
+    fit_s: f64,
+    lights_mean_de: f64,
+    lights_p99_de: f64,
+    sky_mean_de: f64,
+    sky_p99_de: f64,
+    median_rel_0_70: f64,
+    p90_rel_0_70: f64,
+    max_rel_0_70: f64,
+    median_rel_70_80: f64,
+    p90_rel_70_80: f64,
+    max_rel_70_80: f64,
+    median_rel_80_90: f64,
+    p90_rel_80_90: f64,
+    max_rel_80_90: f64,
+    median_rel_below_80: f64,
+    peak_ratio: f64,
+    note: String,
+}
+
+impl CsvRow {
+    fn of(r: &Row) -> Self {
+        let b = &r.hemisphere.bands;
+        let (lights, sky) = (&r.render.scenes[0], &r.render.scenes[1]);
+        Self {
+            material: r.material.clone(),
+            representation: r.representation.clone(),
+            bytes: r.bytes,
+            fit_s: r.fit_s,
+            lights_mean_de: lights.mean_de,
+            lights_p99_de: lights.p99_de,
+            sky_mean_de: sky.mean_de,
+            sky_p99_de: sky.p99_de,
+            median_rel_0_70: b[0].median,
+            p90_rel_0_70: b[0].p90,
+            max_rel_0_70: b[0].max,
+            median_rel_70_80: b[1].median,
+            p90_rel_70_80: b[1].p90,
+            max_rel_70_80: b[1].max,
+            median_rel_80_90: b[2].median,
+            p90_rel_80_90: b[2].p90,
+            max_rel_80_90: b[2].max,
+            median_rel_below_80: r.hemisphere.median_below_80,
+            peak_ratio: r.hemisphere.peak_ratio,
+            note: r.note.clone(),
+        }
+    }
+}
 
 fn write_outputs(
     args: &FidelityArgs,
@@ -656,36 +709,7 @@ fn write_outputs(
     noise: &[(String, Vec<f64>)],
     wall_s: f64,
 ) -> Result<()> {
-    let mut csv = String::from(HEADER);
-    csv.push('\n');
-    for r in rows {
-        let b = &r.hemisphere.bands;
-        let _ = writeln!(
-            csv,
-            "{},\"{}\",{},{:.3},{:.4},{:.4},{:.4},{:.4},{:.4e},{:.4e},{:.4e},{:.4e},{:.4e},{:.4e},{:.4e},{:.4e},{:.4e},{:.4e},{:.4},\"{}\"",
-            r.material,
-            r.representation.replace('"', "'"),
-            r.bytes,
-            r.fit_s,
-            r.render.scenes[0].mean_de,
-            r.render.scenes[0].p99_de,
-            r.render.scenes[1].mean_de,
-            r.render.scenes[1].p99_de,
-            b[0].median,
-            b[0].p90,
-            b[0].max,
-            b[1].median,
-            b[1].p90,
-            b[1].max,
-            b[2].median,
-            b[2].p90,
-            b[2].max,
-            r.hemisphere.median_below_80,
-            r.hemisphere.peak_ratio,
-            r.note.replace('"', "'")
-        );
-    }
-    crate::output::write(args.out.join("results.csv"), csv)?;
+    crate::output::write_csv(args.out.join("results.csv"), rows.iter().map(CsvRow::of))?;
     crate::output::write(
         args.out.join("summary.md"),
         summary(args, rows, noise, wall_s),
@@ -808,38 +832,19 @@ fn check(out: &Path, rows: &[Row], noise: &[(String, Vec<f64>)]) -> Vec<String> 
             problems.push(format!("{f} is missing"));
         }
     }
-    match std::fs::read_to_string(out.join("results.csv")) {
-        Ok(text) => {
-            let lines = text.lines().count();
-            if lines != rows.len() + 1 {
-                problems.push(format!(
+    // Read back with the writer's own schema: a row with a missing, extra
+    // or unparsable field is an error.
+    match csv::Reader::from_path(out.join("results.csv")) {
+        Ok(mut reader) => {
+            let read: Result<Vec<CsvRow>, _> = reader.deserialize().collect();
+            match read {
+                Ok(read) if read.len() != rows.len() => problems.push(format!(
                     "results.csv has {} rows, expected {}",
-                    lines - 1,
+                    read.len(),
                     rows.len()
-                ));
-            }
-            // Every row has the header's columns (commas inside quotes
-            // do not separate).
-            let columns = |line: &str| {
-                let mut quoted = false;
-                1 + line
-                    .chars()
-                    .filter(|&c| {
-                        if c == '"' {
-                            quoted = !quoted;
-                        }
-                        c == ',' && !quoted
-                    })
-                    .count()
-            };
-            let expected = columns(HEADER);
-            for (k, line) in text.lines().enumerate().skip(1) {
-                if columns(line) != expected {
-                    problems.push(format!(
-                        "results.csv row {k} has {} columns, expected {expected}",
-                        columns(line)
-                    ));
-                }
+                )),
+                Ok(_) => {}
+                Err(e) => problems.push(format!("results.csv: {e}")),
             }
         }
         Err(e) => problems.push(format!("results.csv: {e}")),

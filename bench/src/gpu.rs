@@ -90,6 +90,55 @@ mod imp {
         de_vs_table: f64,
     }
 
+    /// One row of `results.csv`: one material's frame rates, throughputs
+    /// and agreements.
+    #[derive(serde::Serialize)]
+    struct CsvRow<'a> {
+        material: &'a str,
+        coefficients: usize,
+        bytes: usize,
+        gpu_setup_s: f64,
+        gpu_frame_s: f64,
+        gpu_fps: f64,
+        cpu_frame_s: f64,
+        cpu_fps: f64,
+        table_frame_s: f64,
+        gpu_over_cpu: f64,
+        gpu_evals_per_s: f64,
+        gpu_evals_per_s_with_transfer: f64,
+        cpu_f32_evals_per_s: f64,
+        kernel_error_of_tolerance: f64,
+        f32_error_vs_f64: f64,
+        mean_de2000_gpu_vs_cpu: f64,
+        max_de2000_gpu_vs_cpu: f64,
+        mean_de2000_vs_table: f64,
+    }
+
+    impl<'a> CsvRow<'a> {
+        fn of(r: &'a Row) -> Self {
+            Self {
+                material: &r.material,
+                coefficients: r.coefficients,
+                bytes: r.bytes,
+                gpu_setup_s: r.gpu_setup_s,
+                gpu_frame_s: r.gpu_frame_s,
+                gpu_fps: 1.0 / r.gpu_frame_s,
+                cpu_frame_s: r.cpu_frame_s,
+                cpu_fps: 1.0 / r.cpu_frame_s,
+                table_frame_s: r.table_frame_s,
+                gpu_over_cpu: r.cpu_frame_s / r.gpu_frame_s,
+                gpu_evals_per_s: r.gpu_evals_resident,
+                gpu_evals_per_s_with_transfer: r.gpu_evals_transfer,
+                cpu_f32_evals_per_s: r.cpu_evals,
+                kernel_error_of_tolerance: r.kernel_worst,
+                f32_error_vs_f64: r.f32_error,
+                mean_de2000_gpu_vs_cpu: r.de_vs_cpu,
+                max_de2000_gpu_vs_cpu: r.de_max_vs_cpu,
+                mean_de2000_vs_table: r.de_vs_table,
+            }
+        }
+    }
+
     /// Direction pairs inside the fits' sampled elevations (70 degrees):
     /// a fixed, seeded set of unit vectors of the upper hemisphere.
     fn pairs(n: usize, max_elevation: f64) -> Vec<([f32; 3], [f32; 3])> {
@@ -294,18 +343,7 @@ mod imp {
         }
         rows.sort_by_key(|r| r.coefficients);
 
-        let mut csv = String::from("material,coefficients,bytes,gpu_setup_s,gpu_frame_s,gpu_fps,cpu_frame_s,cpu_fps,table_frame_s,gpu_over_cpu,gpu_evals_per_s,gpu_evals_per_s_with_transfer,cpu_f32_evals_per_s,kernel_error_of_tolerance,f32_error_vs_f64,mean_de2000_gpu_vs_cpu,max_de2000_gpu_vs_cpu,mean_de2000_vs_table\n");
-        for r in &rows {
-            let _ = writeln!(
-                csv,
-                "{},{},{},{:.4},{:.6},{:.3},{:.4},{:.4},{:.4},{:.2},{:.4e},{:.4e},{:.4e},{:.4},{:.3e},{:.5},{:.4},{:.4}",
-                r.material, r.coefficients, r.bytes, r.gpu_setup_s, r.gpu_frame_s, 1.0 / r.gpu_frame_s,
-                r.cpu_frame_s, 1.0 / r.cpu_frame_s, r.table_frame_s, r.cpu_frame_s / r.gpu_frame_s,
-                r.gpu_evals_resident, r.gpu_evals_transfer, r.cpu_evals, r.kernel_worst, r.f32_error,
-                r.de_vs_cpu, r.de_max_vs_cpu, r.de_vs_table
-            );
-        }
-        crate::output::write(args.out.join("results.csv"), &csv)?;
+        crate::output::write_csv(args.out.join("results.csv"), rows.iter().map(CsvRow::of))?;
 
         let (w, h) = resolution.unwrap_or((desc.camera.width, desc.camera.height));
         let mut md = format!(

@@ -1,6 +1,6 @@
-//! Every file the CLI writes goes through here: atomically (a temporary file
-//! beside it, then a rename), with the path in the error; and errors as the
-//! CLI prints them.
+//! Every file the CLI and the benchmarks write goes through here:
+//! atomically (a temporary file beside it, then a rename), with the path in
+//! the error; CSV through the `csv` crate; and errors as the CLI prints them.
 
 use anyhow::{Context, Result};
 use std::path::Path;
@@ -10,6 +10,23 @@ pub fn write(path: impl AsRef<Path>, contents: impl AsRef<[u8]>) -> Result<()> {
     let path = path.as_ref();
     render_cpu::write_atomic(path, |tmp| std::fs::write(tmp, contents.as_ref()))
         .with_context(|| format!("cannot write {}", path.display()))
+}
+
+/// Writes `rows` as CSV atomically, the header from the fields' names.
+pub fn write_csv<T: serde::Serialize>(
+    path: impl AsRef<Path>,
+    rows: impl IntoIterator<Item = T>,
+) -> Result<()> {
+    let path = path.as_ref();
+    let mut csv = csv::Writer::from_writer(Vec::new());
+    for row in rows {
+        csv.serialize(row)
+            .with_context(|| format!("cannot write a row of {}", path.display()))?;
+    }
+    let bytes = csv
+        .into_inner()
+        .map_err(|e| anyhow::anyhow!("cannot write {}: {e}", path.display()))?;
+    write(path, bytes)
 }
 
 /// The error and its causes on one line, each cause once: library errors

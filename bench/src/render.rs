@@ -150,27 +150,38 @@ pub fn run(args: RenderBenchArgs) -> Result<()> {
     Ok(())
 }
 
+/// One row of `render.csv`: one sampler at one sample count.
+#[derive(serde::Serialize)]
+struct CsvRow<'a> {
+    scene: &'a str,
+    sampler: &'a str,
+    spp: usize,
+    seconds: f64,
+    rmse: f64,
+    mean_de2000: f64,
+    var_r: f64,
+    var_g: f64,
+    var_b: f64,
+    sampler_bytes: usize,
+}
+
 /// `render.csv`: one row per sampler and sample count.
 fn write_csv(args: &RenderBenchArgs, scene_name: &str, rows: &[Row]) -> Result<()> {
-    let mut csv = String::from(
-        "scene,sampler,spp,seconds,rmse,mean_de2000,var_r,var_g,var_b,sampler_bytes\n",
-    );
-    for r in rows {
-        let _ = writeln!(
-            csv,
-            "{scene_name},{},{},{:.6},{:.6e},{:.6},{:.6e},{:.6e},{:.6e},{}",
-            r.sampler.name(),
-            r.spp,
-            r.seconds,
-            r.rmse,
-            r.mean_de2000,
-            r.variance[0],
-            r.variance[1],
-            r.variance[2],
-            r.sampler_bytes
-        );
-    }
-    crate::output::write(args.out.join("render.csv"), csv)
+    crate::output::write_csv(
+        args.out.join("render.csv"),
+        rows.iter().map(|r| CsvRow {
+            scene: scene_name,
+            sampler: r.sampler.name(),
+            spp: r.spp,
+            seconds: r.seconds,
+            rmse: r.rmse,
+            mean_de2000: r.mean_de2000,
+            var_r: r.variance[0],
+            var_g: r.variance[1],
+            var_b: r.variance[2],
+            sampler_bytes: r.sampler_bytes,
+        }),
+    )
 }
 
 /// `error_vs_time.svg/.png`: RMSE against time and against samples.

@@ -226,7 +226,7 @@ fn write_outputs(
     total: f64,
     finished: bool,
 ) -> Result<()> {
-    crate::output::write(args.out.join("results.csv"), results_csv(args, rows))?;
+    crate::output::write_csv(args.out.join("results.csv"), csv_rows(args, rows))?;
     let md = summary_md(args, dir, rows, total, finished);
     crate::output::write(args.out.join("summary.md"), &md)?;
     write_figure(args, rows)?;
@@ -237,33 +237,45 @@ fn write_outputs(
     Ok(())
 }
 
-/// One CSV row per channel fit.
-fn results_csv(args: &RglBenchArgs, rows: &[Row]) -> String {
-    let mut csv = String::from(
-        "material,dims,channel,samples,n_p,n_q,bytes_f32,interval_scale,rel_tol_used,max_rel,mean_rel,rmse,fit_s,polynomial_max_rel,outcome\n",
-    );
-    for r in rows {
-        let _ = writeln!(
-            csv,
-            "{},{},{},{},{},{},{},{},{},{:.5},{:.5},{:.5e},{:.3},{:.4},{}",
-            r.material,
-            r.dims,
-            r.channel,
-            r.samples,
-            r.n_p,
-            r.n_q,
-            r.bytes,
-            r.interval_scale,
-            args.rel_tol * r.interval_scale,
-            r.max_rel,
-            r.mean_rel,
-            r.rmse,
-            r.seconds,
-            r.polynomial_max_rel,
-            r.outcome
-        );
-    }
-    csv
+/// One row of `results.csv`: one channel fit.
+#[derive(serde::Serialize)]
+struct CsvRow<'a> {
+    material: &'a str,
+    dims: usize,
+    channel: char,
+    samples: usize,
+    n_p: usize,
+    n_q: usize,
+    bytes_f32: usize,
+    interval_scale: f64,
+    rel_tol_used: f64,
+    max_rel: f64,
+    mean_rel: f64,
+    rmse: f64,
+    fit_s: f64,
+    polynomial_max_rel: f64,
+    outcome: &'a str,
+}
+
+/// The CSV rows, one per channel fit.
+fn csv_rows<'a>(args: &'a RglBenchArgs, rows: &'a [Row]) -> impl Iterator<Item = CsvRow<'a>> {
+    rows.iter().map(move |r| CsvRow {
+        material: &r.material,
+        dims: r.dims,
+        channel: r.channel,
+        samples: r.samples,
+        n_p: r.n_p,
+        n_q: r.n_q,
+        bytes_f32: r.bytes,
+        interval_scale: r.interval_scale,
+        rel_tol_used: args.rel_tol * r.interval_scale,
+        max_rel: r.max_rel,
+        mean_rel: r.mean_rel,
+        rmse: r.rmse,
+        fit_s: r.seconds,
+        polynomial_max_rel: r.polynomial_max_rel,
+        outcome: &r.outcome,
+    })
 }
 
 /// The Markdown summary: the run's settings, then one row per material and

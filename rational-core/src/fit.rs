@@ -504,6 +504,17 @@ fn check_sizes(data: &IntervalData, settings: &FitSettings) -> Result<usize, Fit
     Ok(settings.max_coeffs.min(data.len()))
 }
 
+/// At least as many samples as the split has coefficients.
+fn check_split(data: &IntervalData, n_p: usize, n_q: usize) -> Result<(), FitError> {
+    if data.len() < n_p + n_q {
+        return Err(FitError::TooFewSamples {
+            samples: data.len(),
+            coeffs: n_p + n_q,
+        });
+    }
+    Ok(())
+}
+
 /// [`crate::Fitter::split`].
 pub(crate) fn solve_split(
     data: &IntervalData,
@@ -512,12 +523,7 @@ pub(crate) fn solve_split(
     settings: &FitSettings,
     extra: &dyn ExtraConstraints,
 ) -> Result<SplitFit, FitError> {
-    if data.len() < n_p + n_q {
-        return Err(FitError::TooFewSamples {
-            samples: data.len(),
-            coeffs: n_p + n_q,
-        });
-    }
+    check_split(data, n_p, n_q)?;
     if n_p == 0 || n_q == 0 {
         return Err(FitError::InvalidSetting {
             name: "split",
@@ -536,12 +542,7 @@ pub(crate) fn split_problem(
     settings: &FitSettings,
     extra: &dyn ExtraConstraints,
 ) -> Result<LdpProblem, FitError> {
-    if data.len() < n_p + n_q {
-        return Err(FitError::TooFewSamples {
-            samples: data.len(),
-            coeffs: n_p + n_q,
-        });
-    }
+    check_split(data, n_p, n_q)?;
     let prep = Prepared::new(data, settings, extra, n_p.max(n_q).max(1))?;
     let rows = prep.base_rows(n_p, n_q);
     prep.problem(data, n_p, n_q, &rows)
