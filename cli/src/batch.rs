@@ -372,6 +372,23 @@ pub fn run_batch(args: BatchArgs) -> Result<()> {
     Ok(())
 }
 
+/// One row of `summary.csv`: a material of the manifest, its status, and
+/// for a done one what its output holds (empty fields otherwise).
+#[derive(serde::Serialize)]
+struct SummaryRow<'a> {
+    name: &'a str,
+    input: String,
+    key: Option<String>,
+    status: &'static str,
+    file: Option<String>,
+    coefficients: Option<usize>,
+    bytes_f32: Option<usize>,
+    fit_s: Option<f64>,
+    lights_de: Option<f64>,
+    sky_de: Option<f64>,
+    note: String,
+}
+
 /// `summary.csv` over every material of the manifest (all shards): its
 /// status, and for the done ones what the output holds. Returns the number
 /// done and the path.
@@ -380,10 +397,7 @@ fn write_summary(
     entries: &[Entry],
     outcomes: &BTreeMap<usize, Outcome>,
 ) -> Result<(usize, PathBuf)> {
-    use crate::csv::quote;
-    let mut text = String::from(
-        "name,input,key,status,file,coefficients,bytes_f32,fit_s,lights_de,sky_de,note\n",
-    );
+    let mut rows = Vec::with_capacity(entries.len());
     let mut done = 0;
     for (k, e) in entries.iter().enumerate() {
         let key = e.key().ok();
@@ -398,7 +412,8 @@ fn write_summary(
             (None, _) => "missing",
         };
         let note = match outcomes.get(&k) {
-            Some(Outcome::Failed(m)) => m.clone(),
+            // One line per row.
+            Some(Outcome::Failed(m)) => m.replace('\n', " "),
             _ => String::new(),
         };
         let fitted = value
@@ -411,32 +426,28 @@ fn write_summary(
                 .as_ref()
                 .and_then(|v| v.pointer(p))
                 .and_then(serde_json::Value::as_f64)
-                .map_or_else(String::new, |x| format!("{x}"))
         };
         done += usize::from(value.is_some());
-        text += &format!(
-            "{},{},{},{status},{},{},{},{},{},{},{}\n",
-            quote(&e.name),
-            quote(&e.input.to_string_lossy()),
-            key.map_or_else(String::new, |k| format!("{k:016x}")),
-            file.as_ref()
+        rows.push(SummaryRow {
+            name: &e.name,
+            input: e.input.to_string_lossy().into_owned(),
+            key: key.map(|k| format!("{k:016x}")),
+            status,
+            file: file
+                .as_ref()
                 .filter(|_| value.is_some())
                 .and_then(|f| f.file_name())
-                .map_or_else(String::new, |f| quote(&f.to_string_lossy())),
-            fitted
-                .as_ref()
-                .map_or_else(String::new, |f| f.coefficients().to_string()),
-            fitted
-                .as_ref()
-                .map_or_else(String::new, |f| f.byte_size_f32().to_string()),
-            number("/batch/seconds"),
-            number("/render/scenes/0/mean_de"),
-            number("/render/scenes/1/mean_de"),
-            quote(&note)
-        );
+                .map(|f| f.to_string_lossy().into_owned()),
+            coefficients: fitted.as_ref().map(|f| f.coefficients()),
+            bytes_f32: fitted.as_ref().map(|f| f.byte_size_f32()),
+            fit_s: number("/batch/seconds"),
+            lights_de: number("/render/scenes/0/mean_de"),
+            sky_de: number("/render/scenes/1/mean_de"),
+            note,
+        });
     }
     let path = out.join("summary.csv");
-    crate::output::write(&path, text)?;
+    crate::output::write_csv(&path, rows)?;
     Ok((done, path))
 }
 

@@ -1,18 +1,8 @@
-//! Numeric CSV through the `csv` crate: comma separated, optional header
-//! row, errors by line and column.
+//! Numeric CSV input through the `csv` crate: comma separated, optional
+//! header row, errors by line and column.
 
 use anyhow::{bail, Context, Result};
 use std::path::Path;
-
-/// A CSV field: quoted when it holds a comma, a quote or a line break
-/// (quotes doubled, line breaks made spaces).
-pub fn quote(s: &str) -> String {
-    if s.contains([',', '"', '\n']) {
-        format!("\"{}\"", s.replace('"', "\"\"").replace('\n', " "))
-    } else {
-        s.to_string()
-    }
-}
 
 /// Rows of numbers; a first line that does not parse is taken as a header.
 pub fn read_numeric(path: &Path) -> Result<Vec<Vec<f64>>> {
