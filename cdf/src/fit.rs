@@ -2,7 +2,8 @@
 //! data are the tabulated inverse CDFs with intervals taken in CDF space
 //! (`[F^-1(u - delta), F^-1(u + delta)]`: narrow where the density is high,
 //! wide where it is low), the known part of the model subtracted, and the
-//! monotonicity rows added; the budget is searched by doubling and bisection;
+//! monotonicity rows added; the budget is searched by doubling and bisection
+//! over five splits per budget (rational-core's `Search::Probe`);
 //! monotonicity is then checked on a grid denser than the data, and points
 //! where the derivative is negative are added as constraints before solving
 //! again.
@@ -13,7 +14,7 @@ use crate::report::{CdfFitReport, ComponentReport};
 use crate::settings::CdfFitSettings;
 use crate::{CdfError, CdfTable};
 use rational_core::{
-    Domain, FitError, FitSettings, Fitter, IntervalData, PoleControl, RationalFunction,
+    Domain, FitError, FitSettings, Fitter, IntervalData, PoleControl, RationalFunction, Search,
 };
 use rayon::prelude::*;
 use std::f64::consts::FRAC_PI_2;
@@ -294,43 +295,11 @@ struct Found {
     min_q_ratio: f64,
 }
 
-/// Fractions of a budget given to the numerator in a probe: a spread of
-/// splits rather than all `N - 1` (the search probes many budgets).
-const PROBE_SPLITS: [f64; 5] = [0.2, 0.35, 0.5, 0.65, 0.8];
-
-/// Solves a spread of splits of budget `n` in parallel; the accepted one
-/// with the smallest condition number, if any.
-fn probe(a: &Assembled, engine: &FitSettings, n: usize) -> Result<Option<Found>, CdfError> {
-    let mut splits: Vec<usize> = PROBE_SPLITS
-        .iter()
-        .map(|f| ((f * n as f64).round() as usize).clamp(1, n - 1))
-        .collect();
-    splits.dedup();
-    let fitter = Fitter::new(&a.data)
-        .settings(engine.clone())
-        .constraints(&a.monotone);
-    let fits = splits
-        .par_iter()
-        .map(|&np| fitter.split(np, n - np))
-        .collect::<Result<Vec<_>, FitError>>()?;
-    Ok(fits
-        .into_iter()
-        .filter(|f| f.summary.accepted)
-        .min_by(|x, y| {
-            let k =
-                |f: &rational_core::SplitFit| f.summary.condition_number.unwrap_or(f64::INFINITY);
-            k(x).total_cmp(&k(y))
-        })
-        .map(|f| Found {
-            n_p: f.summary.n_p,
-            n_q: f.summary.n_q,
-            min_q_ratio: f.verification.map_or(0.0, |v| v.min_q_ratio),
-            function: f.function.expect("accepted splits carry a function"),
-        }))
-}
-
-/// The smallest feasible budget at or above `start`, by doubling then
-/// bisection.
+/// The smallest budget at or above `start` that the library's probing
+/// search ([`Search::Probe`]: doubling, then bisection, five splits per
+/// budget) finds feasible, with its accepted split of smallest condition
+/// number; `None` when no budget up to `max` is. The budgets probed are
+/// appended to `tried`.
 fn search_budget(
     a: &Assembled,
     engine: &FitSettings,
@@ -338,32 +307,38 @@ fn search_budget(
     max: usize,
     tried: &mut Vec<usize>,
 ) -> Result<Option<Found>, CdfError> {
-    let max = max.min(a.data.len());
-    let mut bad = start.max(2) - 1;
-    let mut n = start.max(2);
-    let mut found = loop {
-        if n > max {
-            return Ok(None);
-        }
-        tried.push(n);
-        if let Some(f) = probe(a, engine, n)? {
-            break (n, f);
-        }
-        bad = n;
-        if n == max {
-            return Ok(None);
-        }
-        n = (2 * n).min(max);
-    };
-    while found.0 - bad > 1 {
-        let mid = bad + (found.0 - bad) / 2;
-        tried.push(mid);
-        match probe(a, engine, mid)? {
-            Some(f) => found = (mid, f),
-            None => bad = mid,
-        }
+    let start = start.max(2);
+    if start > max.min(a.data.len()) {
+        return Ok(None);
     }
-    Ok(Some(found.1))
+    // This crate widens its own intervals (in CDF space), not the engine.
+    let settings = engine
+        .clone()
+        .with_coeff_range(start, max)?
+        .with_search(Search::Probe)
+        .with_widening(2.0, 0)?;
+    let result = Fitter::new(&a.data)
+        .settings(settings)
+        .constraints(&a.monotone)
+        .fit();
+    let splits = match &result {
+        Ok(r) => r.splits.as_slice(),
+        Err(FitError::NoFeasibleFit { splits, .. }) => splits.as_slice(),
+        Err(_) => &[],
+    };
+    let mut budgets: Vec<usize> = splits.iter().map(|s| s.n_p + s.n_q).collect();
+    budgets.dedup();
+    tried.extend(budgets);
+    match result {
+        Ok(r) => Ok(Some(Found {
+            n_p: r.n_p,
+            n_q: r.n_q,
+            min_q_ratio: r.verification.min_q_ratio,
+            function: r.function,
+        })),
+        Err(FitError::NoFeasibleFit { .. }) => Ok(None),
+        Err(e) => Err(e.into()),
+    }
 }
 
 fn fit_component(

@@ -57,8 +57,10 @@ pub struct FitArgs {
     #[arg(long, default_value = "grid")]
     poles: PoleControl,
     /// How to visit the splits: exhaustive (every split of every budget, the
-    /// paper's sweep) or staircase (the same smallest budget and splits in
-    /// about N log N solves instead of N^2/2; see `rational_core::Search`).
+    /// paper's sweep), staircase (the same smallest budget and splits in
+    /// about N log N solves instead of N^2/2; see `rational_core::Search`)
+    /// or probe (doubling and bisection of the budget over five splits each,
+    /// about 5 log N solves, a small budget but not always the smallest).
     /// Default: staircase (on the eleven RGL files of the test data it
     /// returns the exhaustive sweep's fits, coefficient for coefficient, two
     /// to eight times sooner).

@@ -173,8 +173,10 @@ struct FitArgs {
     /// How to choose among feasible splits: condition or depth.
     #[arg(long, default_value = "condition")]
     selection: Selection,
-    /// How to visit the splits: exhaustive (every split of every budget) or
-    /// staircase (the same smallest budget and splits in far fewer solves).
+    /// How to visit the splits: exhaustive (every split of every budget),
+    /// staircase (the same smallest budget and splits in far fewer solves)
+    /// or probe (five splits per budget, doubling then bisection: fewest
+    /// solves, a small budget but not always the smallest).
     #[arg(long, default_value = "exhaustive")]
     search: Search,
     /// Poles between samples: none, grid (dense-grid check) or bernstein (certificate).

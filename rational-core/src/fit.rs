@@ -576,6 +576,7 @@ pub(crate) fn sweep(
                 exhaustive(&prep, &current, max_n, want_condition, &mut summaries)?
             }
             Search::Staircase => staircase(&prep, &current, max_n, want_condition, &mut summaries)?,
+            Search::Probe => probing(&prep, &current, max_n, want_condition, &mut summaries)?,
         };
         if let Some(best) = select(candidates, settings.selection) {
             let function = best.function.expect("accepted splits carry a function");
@@ -667,6 +668,77 @@ fn exhaustive(
         }
     }
     Ok(Vec::new())
+}
+
+/// The probe splits of budget `n` ([`crate::PROBE_FRACTIONS`]), solved in
+/// parallel, each from scratch.
+fn probe(
+    prep: &Prepared<'_>,
+    data: &IntervalData,
+    n: usize,
+    want_condition: bool,
+    summaries: &mut Vec<SplitSummary>,
+) -> Result<Vec<SplitFit>, FitError> {
+    let mut nps: Vec<usize> = crate::PROBE_FRACTIONS
+        .iter()
+        .map(|f| ((f * n as f64).round() as usize).clamp(1, n - 1))
+        .collect();
+    nps.dedup();
+    let done = AtomicUsize::new(0);
+    let fits: Vec<SplitFit> = nps
+        .par_iter()
+        .map(|&np| {
+            let r = prep.solve(data, np, n - np, want_condition, &mut Vec::new());
+            let k = done.fetch_add(1, Ordering::Relaxed) + 1;
+            if let Some(cb) = &prep.settings.progress {
+                cb(Progress {
+                    budget: n,
+                    done: k,
+                    total: nps.len(),
+                });
+            }
+            r
+        })
+        .collect::<Result<_, _>>()?;
+    summaries.extend(fits.iter().map(|f| f.summary.clone()));
+    Ok(fits)
+}
+
+/// [`Search::Probe`]: budgets doubling from the smallest up to `max_n`, then
+/// bisected between the last infeasible and the first feasible one.
+/// Returns the probe splits of the smallest feasible budget found (empty
+/// when none is).
+fn probing(
+    prep: &Prepared<'_>,
+    data: &IntervalData,
+    max_n: usize,
+    want_condition: bool,
+    summaries: &mut Vec<SplitSummary>,
+) -> Result<Vec<SplitFit>, FitError> {
+    let accepted = |fits: &[SplitFit]| fits.iter().any(|f| f.summary.accepted);
+    let mut n = prep.settings.min_coeffs;
+    let mut infeasible = n - 1;
+    let (mut feasible, mut found) = loop {
+        let fits = probe(prep, data, n, want_condition, summaries)?;
+        if accepted(&fits) {
+            break (n, fits);
+        }
+        infeasible = n;
+        if n >= max_n {
+            return Ok(Vec::new());
+        }
+        n = (2 * n).min(max_n);
+    };
+    while feasible - infeasible > 1 {
+        let mid = infeasible + (feasible - infeasible) / 2;
+        let fits = probe(prep, data, mid, want_condition, summaries)?;
+        if accepted(&fits) {
+            (feasible, found) = (mid, fits);
+        } else {
+            infeasible = mid;
+        }
+    }
+    Ok(found)
 }
 
 /// The staircase search ([`Search::Staircase`]) under budget limits that

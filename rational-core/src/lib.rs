@@ -61,5 +61,5 @@ pub use problem::{
 pub use qp_backends::{Backend, SolveOptions, Status};
 pub use rational::RationalFunction;
 pub use report::{FitReport, PoleReport, SplitSummary};
-pub use settings::{FitSettings, Progress, ProgressFn, Screen, Search, Selection};
+pub use settings::{FitSettings, Progress, ProgressFn, Screen, Search, Selection, PROBE_FRACTIONS};
 pub use verify::{ErrorFigures, Verification};

@@ -164,6 +164,7 @@ impl fmt::Display for FitReport {
             match self.search {
                 Search::Exhaustive => "exhaustive",
                 Search::Staircase => "staircase",
+                Search::Probe => "probe",
             },
             self.seconds
         )

@@ -145,8 +145,55 @@ fn staircase_reports_infeasible_problems_and_widens() {
 fn search_names_parse() {
     assert_eq!("staircase".parse::<Search>().unwrap(), Search::Staircase);
     assert_eq!("exhaustive".parse::<Search>().unwrap(), Search::Exhaustive);
+    assert_eq!("probe".parse::<Search>().unwrap(), Search::Probe);
     assert!(matches!(
         "spiral".parse::<Search>(),
         Err(FitError::InvalidSetting { name: "search", .. })
     ));
+}
+
+#[test]
+fn probing_doubles_then_bisects_the_budget_over_five_splits_each() {
+    let settings = FitSettings::default().with_coeff_range(2, 40).unwrap();
+    let data = grid_1d(300, |x| (9.0 * x).sin() + 1.5, 1e-3);
+    let all = fit(&data, &settings.clone().with_search(Search::Exhaustive)).unwrap();
+    let probe = fit(&data, &settings.with_search(Search::Probe)).unwrap();
+    assert!(probe.verification.satisfied);
+    assert_eq!(probe.search, Search::Probe);
+    // The budgets probed: 2, 4, 8... up to the first feasible one, then a
+    // bisection below it; at most five splits each, at the fractions.
+    let mut budgets: Vec<usize> = probe.splits.iter().map(|s| s.n_p + s.n_q).collect();
+    budgets.dedup();
+    let doubling: Vec<usize> = budgets
+        .iter()
+        .copied()
+        .take_while(|n| n.is_power_of_two())
+        .collect();
+    assert!(doubling.len() >= 2 && doubling[0] == 2, "{budgets:?}");
+    for n in &budgets {
+        let probed: Vec<usize> = probe
+            .splits
+            .iter()
+            .filter(|s| s.n_p + s.n_q == *n)
+            .map(|s| s.n_p)
+            .collect();
+        assert!(
+            probed.len() <= rational_core::PROBE_FRACTIONS.len(),
+            "{n}: {probed:?}"
+        );
+        for np in probed {
+            assert!(rational_core::PROBE_FRACTIONS
+                .iter()
+                .any(|f| ((f * *n as f64).round() as usize).clamp(1, n - 1) == np));
+        }
+    }
+    // The budget it returns is feasible and no smaller than the smallest;
+    // the budget just below it was probed and refused.
+    let n = probe.n_p + probe.n_q;
+    assert!(n >= all.n_p + all.n_q, "{n} against {}", all.n_p + all.n_q);
+    assert!(
+        budgets.contains(&(n - 1)) || doubling.last() == Some(&n),
+        "{budgets:?}"
+    );
+    assert!(probe.splits_tried < all.splits_tried);
 }
