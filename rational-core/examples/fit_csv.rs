@@ -14,23 +14,29 @@ use std::error::Error;
 /// Sample coordinates (`dim` per sample, one after the other) and values.
 type Samples = (usize, Vec<f64>, Vec<f64>);
 
-/// Parses `x_1, ..., x_d, value` rows (a header row, if any, is skipped).
+/// Parses `x_1, ..., x_d, value` rows with the `csv` crate (a first row
+/// that is not numbers is a header).
 fn read_csv(text: &str) -> Result<Samples, Box<dyn Error>> {
     let (mut dim, mut points, mut values) = (0, Vec::new(), Vec::new());
-    for (no, line) in text.lines().enumerate() {
-        let fields: Vec<&str> = line.split(',').map(str::trim).collect();
-        let Ok(row) = fields
+    let mut reader = csv::ReaderBuilder::new()
+        .has_headers(false)
+        .trim(csv::Trim::All)
+        .flexible(true)
+        .from_reader(text.as_bytes());
+    for (no, record) in reader.records().enumerate() {
+        let record = record?;
+        let Ok(row) = record
             .iter()
-            .map(|f| f.parse::<f64>())
+            .map(str::parse::<f64>)
             .collect::<Result<Vec<_>, _>>()
         else {
             if no == 0 {
                 continue; // a header
             }
-            return Err(format!("line {}: not a row of numbers", no + 1).into());
+            return Err(format!("row {}: not a row of numbers", no + 1).into());
         };
         if row.len() < 2 || (dim != 0 && row.len() != dim + 1) {
-            return Err(format!("line {}: {} fields", no + 1, row.len()).into());
+            return Err(format!("row {}: {} fields", no + 1, row.len()).into());
         }
         dim = row.len() - 1;
         points.extend_from_slice(&row[..dim]);
