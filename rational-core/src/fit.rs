@@ -642,27 +642,9 @@ fn exhaustive(
     want_condition: bool,
     summaries: &mut Vec<SplitSummary>,
 ) -> Result<Vec<SplitFit>, FitError> {
-    let settings = prep.settings;
-    for n in settings.min_coeffs..=max_n {
-        let splits: Vec<(usize, usize)> = (1..n).map(|np| (np, n - np)).collect();
-        let done = AtomicUsize::new(0);
-        let total = splits.len();
-        let fits: Vec<SplitFit> = splits
-            .par_iter()
-            .map(|&(np, nq)| {
-                let r = prep.solve(data, np, nq, want_condition, &mut Vec::new());
-                let k = done.fetch_add(1, Ordering::Relaxed) + 1;
-                if let Some(cb) = &settings.progress {
-                    cb(Progress {
-                        budget: n,
-                        done: k,
-                        total,
-                    });
-                }
-                r
-            })
-            .collect::<Result<_, _>>()?;
-        summaries.extend(fits.iter().map(|f| f.summary.clone()));
+    for n in prep.settings.min_coeffs..=max_n {
+        let nps: Vec<usize> = (1..n).collect();
+        let fits = solve_budget(prep, data, n, &nps, want_condition, summaries)?;
         if fits.iter().any(|f| f.summary.accepted) {
             return Ok(fits);
         }
@@ -670,20 +652,17 @@ fn exhaustive(
     Ok(Vec::new())
 }
 
-/// The probe splits of budget `n` ([`crate::PROBE_FRACTIONS`]), solved in
-/// parallel, each from scratch.
-fn probe(
+/// The splits `(n_p, n - n_p)` of budget `n` for each `n_p` of `nps`, in
+/// parallel, each from scratch, reporting progress; their summaries are
+/// appended to `summaries`.
+fn solve_budget(
     prep: &Prepared<'_>,
     data: &IntervalData,
     n: usize,
+    nps: &[usize],
     want_condition: bool,
     summaries: &mut Vec<SplitSummary>,
 ) -> Result<Vec<SplitFit>, FitError> {
-    let mut nps: Vec<usize> = crate::PROBE_FRACTIONS
-        .iter()
-        .map(|f| ((f * n as f64).round() as usize).clamp(1, n - 1))
-        .collect();
-    nps.dedup();
     let done = AtomicUsize::new(0);
     let fits: Vec<SplitFit> = nps
         .par_iter()
@@ -702,6 +681,22 @@ fn probe(
         .collect::<Result<_, _>>()?;
     summaries.extend(fits.iter().map(|f| f.summary.clone()));
     Ok(fits)
+}
+
+/// The probe splits of budget `n` ([`crate::PROBE_FRACTIONS`]).
+fn probe(
+    prep: &Prepared<'_>,
+    data: &IntervalData,
+    n: usize,
+    want_condition: bool,
+    summaries: &mut Vec<SplitSummary>,
+) -> Result<Vec<SplitFit>, FitError> {
+    let mut nps: Vec<usize> = crate::PROBE_FRACTIONS
+        .iter()
+        .map(|f| ((f * n as f64).round() as usize).clamp(1, n - 1))
+        .collect();
+    nps.dedup();
+    solve_budget(prep, data, n, &nps, want_condition, summaries)
 }
 
 /// [`Search::Probe`]: budgets doubling from the smallest up to `max_n`, then
