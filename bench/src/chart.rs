@@ -1,22 +1,83 @@
 //! Log-log scatter charts in panels (one panel per instance, one series per
-//! backend, the Pareto front marked), as SVG and PNG from one description.
+//! backend, the Pareto front marked), drawn by `plotters` as SVG and PNG
+//! from one description.
 
-use crate::canvas::{text_width, Canvas};
-use anyhow::{Context, Result};
-use std::fmt::Write as _;
+use anyhow::{anyhow, Result};
+use plotters::coord::Shift;
+use plotters::prelude::*;
 use std::path::Path;
 
-/// Colours of the series, in legend order.
-pub const PALETTE: [[f64; 3]; 8] = [
-    [0.84, 0.15, 0.16],
-    [0.12, 0.47, 0.71],
-    [0.17, 0.63, 0.17],
-    [1.0, 0.5, 0.05],
-    [0.58, 0.4, 0.74],
-    [0.55, 0.34, 0.29],
-    [0.89, 0.47, 0.76],
-    [0.5, 0.5, 0.5],
+/// Colours of the series, in legend order (every chart of the project).
+pub const PALETTE: [[u8; 3]; 8] = [
+    [214, 38, 41],
+    [31, 120, 181],
+    [43, 161, 43],
+    [255, 128, 13],
+    [148, 102, 189],
+    [140, 87, 74],
+    [227, 120, 194],
+    [128, 128, 128],
 ];
+
+/// Series `k`'s colour.
+pub fn colour(k: usize) -> RGBColor {
+    let [r, g, b] = PALETTE[k % PALETTE.len()];
+    RGBColor(r, g, b)
+}
+
+/// The font every chart uses: DejaVu Sans cut to ASCII and a few symbols
+/// (`fonts/LICENSE`), built in so that PNG text needs no system font.
+const FONT: &[u8] = include_bytes!("../fonts/DejaVuSans-subset.ttf");
+
+/// The family name charts ask for.
+pub const FAMILY: &str = "sans-serif";
+
+/// Registers [`FONT`] with plotters (once): every chart calls this first.
+pub fn register_font() {
+    static REGISTERED: std::sync::Once = std::sync::Once::new();
+    REGISTERED.call_once(|| {
+        // The bytes are ours and checked by the tests: a failure is a bug.
+        plotters::style::register_font(FAMILY, FontStyle::Normal, FONT)
+            .unwrap_or_else(|_| panic!("the built-in chart font does not parse"));
+    });
+}
+
+/// A plotters error as an `anyhow` one (its errors are not `Send`).
+pub fn plot_error(e: impl std::fmt::Display) -> anyhow::Error {
+    anyhow!("drawing a chart: {e}")
+}
+
+/// Draws with `draw` on a `width x height` RGB bitmap and writes it as PNG.
+pub fn write_png(
+    path: &Path,
+    (width, height): (u32, u32),
+    draw: impl FnOnce(&DrawingArea<BitMapBackend, Shift>) -> Result<()>,
+) -> Result<()> {
+    register_font();
+    let mut rgb = vec![255u8; 3 * width as usize * height as usize];
+    {
+        let root = BitMapBackend::with_buffer(&mut rgb, (width, height)).into_drawing_area();
+        draw(&root)?;
+        root.present().map_err(plot_error)?;
+    }
+    render_cpu::write_png(path, width as usize, height as usize, &rgb)?;
+    Ok(())
+}
+
+/// Draws with `draw` on a `width x height` SVG and returns its text.
+pub fn svg_text(
+    (width, height): (u32, u32),
+    draw: impl FnOnce(&DrawingArea<SVGBackend, Shift>) -> Result<()>,
+) -> Result<String> {
+    register_font();
+    let mut text = String::new();
+    {
+        let root = SVGBackend::with_string(&mut text, (width, height)).into_drawing_area();
+        draw(&root)?;
+        root.present().map_err(plot_error)?;
+    }
+    Ok(text)
+}
 
 /// One panel: points per series (index into the figure's legend).
 #[derive(Debug, Clone, Default)]
@@ -39,7 +100,7 @@ pub struct Figure {
     pub x_label: String,
     /// Label of the y axis.
     pub y_label: String,
-    /// Series names; series `k` is drawn in `PALETTE[k % 8]`.
+    /// Series names; series `k` is drawn in [`colour`]`(k)`.
     pub legend: Vec<String>,
     /// The panels, laid out in rows of `columns`.
     pub panels: Vec<Panel>,
@@ -85,289 +146,136 @@ fn decades(values: impl Iterator<Item = f64>) -> (i32, i32) {
     (a, b.max(a + 1))
 }
 
-const PANEL_W: f64 = 380.0;
-const PANEL_H: f64 = 280.0;
-const MARGIN: (f64, f64, f64, f64) = (62.0, 14.0, 30.0, 40.0); // left, right, top, bottom
-const HEADER: f64 = 56.0;
+const PANEL_W: u32 = 380;
+const PANEL_H: u32 = 280;
+const HEADER: u32 = 56;
 
-struct Layout {
-    width: f64,
-    height: f64,
+/// A decade's label: `1e-3`, `1e2`.
+fn decade_label(v: &f64) -> String {
+    format!("{v:e}")
 }
 
 impl Figure {
-    /// Whether a panel marks a Pareto front (the legend names it then).
-    fn has_front(&self) -> bool {
-        self.panels.iter().any(|p| !p.front.is_empty())
-    }
-
-    fn layout(&self) -> Layout {
+    fn grid(&self) -> (usize, usize) {
         let cols = self.columns.max(1).min(self.panels.len().max(1));
-        let rows = self.panels.len().div_ceil(cols).max(1);
-        Layout {
-            width: cols as f64 * PANEL_W,
-            height: HEADER + rows as f64 * PANEL_H,
-        }
+        (self.panels.len().div_ceil(cols).max(1), cols)
     }
 
-    fn origin(&self, k: usize) -> (f64, f64) {
-        let cols = self.columns.max(1).min(self.panels.len().max(1));
-        (
-            (k % cols) as f64 * PANEL_W,
-            HEADER + (k / cols) as f64 * PANEL_H,
-        )
-    }
-
-    /// Scales of panel `k`: decade ranges and the maps to pixels.
-    fn scales(&self, k: usize) -> Scales {
-        let p = &self.panels[k];
-        let pts = p.points.iter().filter(|(_, x, y)| usable(*x, *y));
-        let xd = decades(pts.clone().map(|(_, x, _)| *x));
-        let yd = decades(pts.map(|(_, _, y)| *y));
-        let (ox, oy) = self.origin(k);
-        Scales {
-            xd,
-            yd,
-            left: ox + MARGIN.0,
-            right: ox + PANEL_W - MARGIN.1,
-            top: oy + MARGIN.2,
-            bottom: oy + PANEL_H - MARGIN.3,
-        }
+    /// Width and height in pixels.
+    pub fn size(&self) -> (u32, u32) {
+        let (rows, cols) = self.grid();
+        (cols as u32 * PANEL_W, HEADER + rows as u32 * PANEL_H)
     }
 
     /// The figure as SVG.
-    pub fn svg(&self) -> String {
-        let l = self.layout();
-        let mut s = String::new();
-        let _ = writeln!(
-            s,
-            "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{}\" height=\"{}\" font-family=\"sans-serif\" font-size=\"11\">\n<rect width=\"100%\" height=\"100%\" fill=\"white\"/>",
-            l.width, l.height
-        );
-        let _ = writeln!(
-            s,
-            "<text x=\"10\" y=\"18\" font-size=\"14\">{}</text>",
-            escape(&self.title)
-        );
-        let mut x = 10.0;
-        for (k, name) in self.legend.iter().enumerate() {
-            let _ = writeln!(
-                s,
-                "<circle cx=\"{}\" cy=\"36\" r=\"4\" fill=\"{}\"/><text x=\"{}\" y=\"40\">{}</text>",
-                x + 4.0,
-                hex(PALETTE[k % PALETTE.len()]),
-                x + 12.0,
-                escape(name)
-            );
-            x += 24.0 + 7.0 * name.len() as f64;
-        }
-        if self.has_front() {
-            let _ = writeln!(
-                s,
-                "<text x=\"{}\" y=\"40\">black rings and line: Pareto front</text>",
-                x + 10.0
-            );
-        }
-        for (k, p) in self.panels.iter().enumerate() {
-            let sc = self.scales(k);
-            let _ = writeln!(
-                s,
-                "<text x=\"{}\" y=\"{}\" font-size=\"12\">{}</text>",
-                sc.left,
-                sc.top - 10.0,
-                escape(&p.title)
-            );
-            if !p.points.iter().any(|(_, x, y)| usable(*x, *y)) {
-                let _ = writeln!(
-                    s,
-                    "<text x=\"{:.1}\" y=\"{:.1}\">no points</text>",
-                    sc.left + 20.0,
-                    0.5 * (sc.top + sc.bottom)
-                );
-            }
-            for e in sc.xd.0..=sc.xd.1 {
-                let px = sc.x(10f64.powi(e));
-                let _ = writeln!(s, "<line x1=\"{px:.1}\" y1=\"{:.1}\" x2=\"{px:.1}\" y2=\"{:.1}\" stroke=\"#ddd\"/><text x=\"{:.1}\" y=\"{:.1}\" text-anchor=\"middle\">1e{e}</text>", sc.top, sc.bottom, px, sc.bottom + 14.0);
-            }
-            for e in sc.yd.0..=sc.yd.1 {
-                let py = sc.y(10f64.powi(e));
-                let _ = writeln!(s, "<line x1=\"{:.1}\" y1=\"{py:.1}\" x2=\"{:.1}\" y2=\"{py:.1}\" stroke=\"#ddd\"/><text x=\"{:.1}\" y=\"{:.1}\" text-anchor=\"end\">1e{e}</text>", sc.left, sc.right, sc.left - 4.0, py + 4.0);
-            }
-            let _ = writeln!(
-                s,
-                "<rect x=\"{:.1}\" y=\"{:.1}\" width=\"{:.1}\" height=\"{:.1}\" fill=\"none\" stroke=\"black\"/>",
-                sc.left,
-                sc.top,
-                sc.right - sc.left,
-                sc.bottom - sc.top
-            );
-            let _ = writeln!(
-                s,
-                "<text x=\"{:.1}\" y=\"{:.1}\" text-anchor=\"middle\">{}</text>",
-                0.5 * (sc.left + sc.right),
-                sc.bottom + 30.0,
-                escape(&self.x_label)
-            );
-            let (cx, cy) = (sc.left - 48.0, 0.5 * (sc.top + sc.bottom));
-            let _ = writeln!(
-                s,
-                "<text x=\"{cx:.1}\" y=\"{cy:.1}\" text-anchor=\"middle\" transform=\"rotate(-90 {cx:.1} {cy:.1})\">{}</text>",
-                escape(&self.y_label)
-            );
-            let front = sc.front_pixels(p);
-            if front.len() > 1 {
-                let path: Vec<String> = front
-                    .iter()
-                    .map(|(x, y)| format!("{x:.1},{y:.1}"))
-                    .collect();
-                let _ = writeln!(
-                    s,
-                    "<polyline points=\"{}\" fill=\"none\" stroke=\"black\" stroke-dasharray=\"3,2\"/>",
-                    path.join(" ")
-                );
-            }
-            for &(series, x, y) in p.points.iter().filter(|(_, x, y)| usable(*x, *y)) {
-                let _ = writeln!(
-                    s,
-                    "<circle cx=\"{:.1}\" cy=\"{:.1}\" r=\"3.5\" fill=\"{}\" fill-opacity=\"0.8\"/>",
-                    sc.x(x),
-                    sc.y(y),
-                    hex(PALETTE[series % PALETTE.len()])
-                );
-            }
-            for (x, y) in front {
-                let _ = writeln!(
-                    s,
-                    "<circle cx=\"{x:.1}\" cy=\"{y:.1}\" r=\"6\" fill=\"none\" stroke=\"black\"/>"
-                );
-            }
-        }
-        s.push_str("</svg>\n");
-        s
+    pub fn svg(&self) -> Result<String> {
+        svg_text(self.size(), |root| self.draw(root))
     }
 
     /// The figure as PNG.
     pub fn png(&self, path: &Path) -> Result<()> {
-        let l = self.layout();
-        let mut c = Canvas::new(l.width as usize, l.height as usize, [1.0; 3]);
-        let (black, grey) = ([0.0; 3], [0.86; 3]);
-        c.text(10, 8, &self.title, 2, black);
-        let mut x = 10i64;
+        write_png(path, self.size(), |root| self.draw(root))
+    }
+
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<()> {
+        root.fill(&WHITE).map_err(plot_error)?;
+        let (header, body) = root.split_vertically(HEADER);
+        header
+            .draw(&Text::new(self.title.clone(), (10, 6), (FAMILY, 16)))
+            .map_err(plot_error)?;
+        let style = TextStyle::from((FAMILY, 12));
+        let mut x = 10;
         for (k, name) in self.legend.iter().enumerate() {
-            c.dot(x as f64 + 4.0, 37.0, 3, PALETTE[k % PALETTE.len()]);
-            c.text(x + 12, 33, name, 2, black);
-            x += 28 + text_width(name, 2);
+            header
+                .draw(&Circle::new((x + 4, 40), 4, colour(k).filled()))
+                .map_err(plot_error)?;
+            header
+                .draw(&Text::new(name.clone(), (x + 12, 33), style.clone()))
+                .map_err(plot_error)?;
+            let (w, _) = header
+                .estimate_text_size(name, &style)
+                .map_err(plot_error)?;
+            x += 24 + w as i32;
         }
-        if self.has_front() {
-            c.ring(x as f64 + 4.0, 37.0, 5, black);
-            c.text(x + 14, 33, "PARETO FRONT", 2, black);
+        if self.panels.iter().any(|p| !p.front.is_empty()) {
+            header
+                .draw(&Text::new(
+                    "black rings and line: Pareto front",
+                    (x + 10, 33),
+                    style.clone(),
+                ))
+                .map_err(plot_error)?;
         }
-        for (k, p) in self.panels.iter().enumerate() {
-            let sc = self.scales(k);
-            c.text(sc.left as i64, sc.top as i64 - 16, &p.title, 2, black);
-            if !p.points.iter().any(|(_, x, y)| usable(*x, *y)) {
-                c.text(
-                    sc.left as i64 + 20,
-                    (0.5 * (sc.top + sc.bottom)) as i64,
-                    "NO POINTS",
-                    2,
-                    black,
-                );
-            }
-            for e in sc.xd.0..=sc.xd.1 {
-                let px = sc.x(10f64.powi(e));
-                c.line((px, sc.top), (px, sc.bottom), grey);
-                let label = format!("1e{e}");
-                c.text(
-                    px as i64 - text_width(&label, 2) / 2,
-                    sc.bottom as i64 + 6,
-                    &label,
-                    2,
-                    black,
-                );
-            }
-            for e in sc.yd.0..=sc.yd.1 {
-                let py = sc.y(10f64.powi(e));
-                c.line((sc.left, py), (sc.right, py), grey);
-                let label = format!("1e{e}");
-                c.text(
-                    sc.left as i64 - 4 - text_width(&label, 2),
-                    py as i64 - 5,
-                    &label,
-                    2,
-                    black,
-                );
-            }
-            for (a, b) in [
-                ((sc.left, sc.top), (sc.right, sc.top)),
-                ((sc.left, sc.bottom), (sc.right, sc.bottom)),
-                ((sc.left, sc.top), (sc.left, sc.bottom)),
-                ((sc.right, sc.top), (sc.right, sc.bottom)),
-            ] {
-                c.line(a, b, black);
-            }
-            c.text(
-                (0.5 * (sc.left + sc.right)) as i64 - text_width(&self.x_label, 2) / 2,
-                sc.bottom as i64 + 22,
-                &self.x_label,
-                2,
-                black,
-            );
-            let front = sc.front_pixels(p);
-            for w in front.windows(2) {
-                c.line(w[0], w[1], black);
-            }
-            for &(series, x, y) in p.points.iter().filter(|(_, x, y)| usable(*x, *y)) {
-                c.dot(sc.x(x), sc.y(y), 2, PALETTE[series % PALETTE.len()]);
-            }
-            for (x, y) in front {
-                c.ring(x, y, 5, black);
-            }
+        let areas = body.split_evenly(self.grid());
+        for (p, area) in self.panels.iter().zip(&areas) {
+            self.draw_panel(p, area)?;
         }
-        c.save_png(path)
-            .with_context(|| format!("cannot write {}", path.display()))
+        Ok(())
     }
-}
 
-struct Scales {
-    xd: (i32, i32),
-    yd: (i32, i32),
-    left: f64,
-    right: f64,
-    top: f64,
-    bottom: f64,
-}
-
-impl Scales {
-    /// The panel's front in pixels, left out points that log axes cannot show.
-    fn front_pixels(&self, p: &Panel) -> Vec<(f64, f64)> {
-        p.front
+    fn draw_panel<DB: DrawingBackend>(
+        &self,
+        p: &Panel,
+        area: &DrawingArea<DB, Shift>,
+    ) -> Result<()> {
+        let points: Vec<(usize, f64, f64)> = p
+            .points
             .iter()
-            .filter(|(x, y)| usable(*x, *y))
-            .map(|&(x, y)| (self.x(x), self.y(y)))
-            .collect()
+            .copied()
+            .filter(|&(_, x, y)| usable(x, y))
+            .collect();
+        let xd = decades(points.iter().map(|p| p.1));
+        let yd = decades(points.iter().map(|p| p.2));
+        let range = |d: (i32, i32)| (10f64.powi(d.0)..10f64.powi(d.1)).log_scale();
+        let mut chart = ChartBuilder::on(area)
+            .caption(&p.title, (FAMILY, 13))
+            .margin(8)
+            .x_label_area_size(34)
+            .y_label_area_size(56)
+            .build_cartesian_2d(range(xd), range(yd))
+            .map_err(plot_error)?;
+        chart
+            .configure_mesh()
+            .x_desc(self.x_label.as_str())
+            .y_desc(self.y_label.as_str())
+            .x_label_formatter(&decade_label)
+            .y_label_formatter(&decade_label)
+            .label_style((FAMILY, 11))
+            .axis_desc_style((FAMILY, 12))
+            .light_line_style(WHITE)
+            .draw()
+            .map_err(plot_error)?;
+        if points.is_empty() {
+            area.draw(&Text::new("no points", (80, 140), (FAMILY, 12)))
+                .map_err(plot_error)?;
+        }
+        let front: Vec<(f64, f64)> = p
+            .front
+            .iter()
+            .copied()
+            .filter(|&(x, y)| usable(x, y))
+            .collect();
+        if front.len() > 1 {
+            chart
+                .draw_series(LineSeries::new(front.iter().copied(), BLACK))
+                .map_err(plot_error)?;
+        }
+        chart
+            .draw_series(
+                points
+                    .iter()
+                    .map(|&(s, x, y)| Circle::new((x, y), 3, colour(s).mix(0.8).filled())),
+            )
+            .map_err(plot_error)?;
+        chart
+            .draw_series(
+                front
+                    .iter()
+                    .map(|&(x, y)| Circle::new((x, y), 6, BLACK.stroke_width(1))),
+            )
+            .map_err(plot_error)?;
+        Ok(())
     }
-
-    fn x(&self, v: f64) -> f64 {
-        let t = (v.log10() - self.xd.0 as f64) / (self.xd.1 - self.xd.0) as f64;
-        self.left + t * (self.right - self.left)
-    }
-
-    fn y(&self, v: f64) -> f64 {
-        let t = (v.log10() - self.yd.0 as f64) / (self.yd.1 - self.yd.0) as f64;
-        self.bottom - t * (self.bottom - self.top)
-    }
-}
-
-fn hex(c: [f64; 3]) -> String {
-    let b = c.map(|v| (v.clamp(0.0, 1.0) * 255.0).round() as u8);
-    format!("#{:02x}{:02x}{:02x}", b[0], b[1], b[2])
-}
-
-fn escape(s: &str) -> String {
-    s.replace('&', "&amp;")
-        .replace('<', "&lt;")
-        .replace('>', "&gt;")
 }
 
 #[cfg(test)]
@@ -388,9 +296,8 @@ mod tests {
         assert_eq!(decades([f64::NAN, -1.0].into_iter()), (0, 1));
     }
 
-    #[test]
-    fn svg_has_every_usable_point() {
-        let f = Figure {
+    fn two_series() -> Figure {
+        Figure {
             title: "t <1>".into(),
             x_label: "s".into(),
             y_label: "err".into(),
@@ -401,10 +308,39 @@ mod tests {
                 front: vec![(1e-3, 1e-2), (1e-2, 1e-3)],
             }],
             columns: 2,
-        };
-        let s = f.svg();
-        // Two data points and two front rings; the point at x = 0 is left out.
-        assert_eq!(s.matches("<circle").count(), 2 + 2 + 2);
-        assert!(s.contains("t &lt;1&gt;"));
+        }
+    }
+
+    #[test]
+    fn svg_has_every_usable_point() {
+        let s = two_series().svg().unwrap();
+        // Two legend dots, two data points and two front rings; the point
+        // at x = 0 is left out.
+        assert_eq!(s.matches("<circle").count(), 2 + 2 + 2, "{s}");
+        assert!(s.contains("t &lt;1&gt;"), "{s}");
+        assert!(s.contains(">\n1e-2\n<"), "decade labels: {s}");
+    }
+
+    #[test]
+    fn png_has_text_and_the_series_colours() {
+        let dir = std::env::temp_dir().join(format!("ratfit-chart-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("f.png");
+        two_series().png(&path).unwrap();
+        let decoder =
+            png::Decoder::new(std::io::BufReader::new(std::fs::File::open(&path).unwrap()));
+        let mut reader = decoder.read_info().unwrap();
+        let mut buf = vec![0; reader.output_buffer_size().unwrap()];
+        let info = reader.next_frame(&mut buf).unwrap();
+        assert_eq!((info.width, info.height), two_series().size());
+        let pixels: Vec<&[u8]> = buf[..info.buffer_size()].chunks(3).collect();
+        // Text is drawn (dark pixels in the header), and both series' colours.
+        let header = 3 * info.width as usize * 30;
+        assert!(buf[..header].chunks(3).any(|p| p.iter().all(|&v| v < 100)));
+        for k in 0..2 {
+            let [r, g, b] = PALETTE[k];
+            assert!(pixels.iter().any(|p| p == &[r, g, b]), "series {k}");
+        }
+        std::fs::remove_dir_all(dir).ok();
     }
 }

@@ -13,12 +13,14 @@
 //!   `bench paper` (the paper's rendering experiments), `bench rgl` (every
 //!   RGL file fitted) and `bench gpu` (frames per second on the GPU).
 //! * Shared with `ratfit`: flag parsers ([`args`]), atomic output
-//!   ([`output`]), progress bars ([`progress`]), scene overrides
-//!   ([`scene_args`]) and a canvas to draw plots on ([`canvas`]).
+//!   ([`output`], CSV and NumPy included), numeric CSV input
+//!   ([`numeric_csv`]), progress bars ([`progress`]), Ctrl-C and broken
+//!   pipes ([`process`]), scene overrides ([`scene_args`]) and the picture
+//!   of `ratfit plot` ([`slices`]).
 //! * For the benchmark targets `brdf_eval` and `sampling` (`cargo bench -p
 //!   ratfit-bench --bench NAME -- [--quick] [--out DIR]`): their flags
 //!   ([`bench_target`]) and the log-log charts every benchmark draws
-//!   ([`chart`]).
+//!   ([`chart`], by `plotters`, with one palette and a built-in font).
 //!
 //! The arguments are clap's, so a program embeds them, as `ratfit bench`
 //! does, and hands them to [`run_bench`]:
@@ -41,19 +43,21 @@
 mod aaa;
 pub mod args;
 pub mod bench_target;
-pub mod canvas;
 pub mod chart;
 mod fidelity;
 mod gpu;
 mod instances;
+pub mod numeric_csv;
 pub mod output;
 mod paper;
+pub mod process;
 pub mod progress;
 mod render;
 mod results;
 mod rgl;
 mod run;
 pub mod scene_args;
+pub mod slices;
 mod summary;
 
 use anyhow::{bail, Context, Result};
@@ -229,9 +233,9 @@ fn run_fit(a: FitBenchArgs) -> Result<()> {
     results::write_csv(&a.out.join("results.csv"), &rows, threads, &info.commit)?;
     let names: Vec<&str> = backends.iter().map(|b| b.name()).collect();
     let (err, time) = summary::figures(&rows, &names);
-    crate::output::write(a.out.join("error_vs_time.svg"), err.svg())?;
+    crate::output::write(a.out.join("error_vs_time.svg"), err.svg()?)?;
     err.png(&a.out.join("error_vs_time.png"))?;
-    crate::output::write(a.out.join("time_vs_samples.svg"), time.svg())?;
+    crate::output::write(a.out.join("time_vs_samples.svg"), time.svg()?)?;
     let md = summary::summary_md(&rows, &info);
     crate::output::write(a.out.join("summary.md"), &md)?;
     println!("\n{md}");

@@ -13,6 +13,8 @@ struct Cli {
 }
 
 fn main() {
+    ratfit_bench::process::exit_quietly_on_broken_pipe();
+    ratfit_bench::process::install();
     if let Err(e) = run() {
         eprintln!("error: {}", ratfit_bench::output::chain_text(&e));
         std::process::exit(1);

@@ -1,6 +1,7 @@
 //! Every file the CLI and the benchmarks write goes through here:
 //! atomically (a temporary file beside it, then a rename), with the path in
-//! the error; CSV through the `csv` crate; and errors as the CLI prints them.
+//! the error; CSV through the `csv` crate, NumPy arrays through `npyz`; and
+//! errors as the CLI prints them.
 
 use anyhow::{Context, Result};
 use std::path::Path;
@@ -10,6 +11,22 @@ pub fn write(path: impl AsRef<Path>, contents: impl AsRef<[u8]>) -> Result<()> {
     let path = path.as_ref();
     render_cpu::write_atomic(path, |tmp| std::fs::write(tmp, contents.as_ref()))
         .with_context(|| format!("cannot write {}", path.display()))
+}
+
+/// `data` as a C-ordered little-endian f64 NumPy array of `shape`,
+/// written atomically.
+pub fn write_npy(path: &Path, shape: &[usize], data: &[f64]) -> Result<()> {
+    use npyz::WriterBuilder;
+    let shape: Vec<u64> = shape.iter().map(|&d| d as u64).collect();
+    let mut bytes = std::io::Cursor::new(Vec::new());
+    let mut writer = npyz::WriteOptions::<f64>::new()
+        .default_dtype()
+        .shape(&shape)
+        .writer(&mut bytes)
+        .begin_nd()?;
+    writer.extend(data.iter().copied())?;
+    writer.finish()?;
+    write(path, bytes.into_inner())
 }
 
 /// Writes `rows` as CSV atomically, the header from the fields' names.

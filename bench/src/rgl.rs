@@ -184,7 +184,10 @@ pub fn run(args: RglBenchArgs) -> Result<()> {
                     }
                     rows.extend(new);
                     let json = fits_dir.join(format!("{stem}_{dims}d.json"));
-                    crate::output::write(&json, serde_json::to_string(&fitted)?)?;
+                    crate::output::write(
+                        &json,
+                        serde_json::to_string(&brdf::FitFile::new(fitted).to_value())?,
+                    )?;
                 }
                 Err(e) => {
                     eprintln!("{stem} {dims}-D: {e}");
@@ -368,7 +371,7 @@ fn write_figure(args: &RglBenchArgs, rows: &[Row]) -> Result<()> {
         panels,
         columns: 2,
     };
-    crate::output::write(args.out.join("error_vs_time.svg"), figure.svg())?;
+    crate::output::write(args.out.join("error_vs_time.svg"), figure.svg()?)?;
     figure.png(&args.out.join("error_vs_time.png"))?;
     Ok(())
 }

@@ -65,6 +65,8 @@ pub use geometry::{
 };
 pub use io::alta::AltaData;
 pub use io::cornell::{cie_xyz, spectrum_to_rgb, xyz_to_linear_srgb, ScatteredBrdf};
+pub use io::fit_file::FitFile;
+pub use io::TableFormat;
 pub use io::{merl, rgl};
 pub use lobe::{Lobe, LobeF32, LOBE_ALPHA_RANGE};
 pub use material::Brdf;

@@ -54,6 +54,22 @@ pub enum CdfError {
     /// A stored inverse CDF is malformed.
     #[error("malformed inverse CDF: {0}")]
     Malformed(String),
+    /// A file could not be read.
+    #[error("{path}: {source}")]
+    Io {
+        /// The file.
+        path: std::path::PathBuf,
+        /// The system's error.
+        source: std::io::Error,
+    },
+    /// A stored file is not of its form.
+    #[error("{path}: {reason}")]
+    MalformedFile {
+        /// The file.
+        path: std::path::PathBuf,
+        /// What is wrong.
+        reason: String,
+    },
 }
 
 pub(crate) fn invalid(name: &'static str, reason: impl Into<String>) -> CdfError {

@@ -32,6 +32,7 @@
 //! ```
 
 mod error;
+mod file;
 mod fit;
 mod mis;
 mod model;
@@ -44,6 +45,7 @@ mod table;
 mod variance;
 
 pub use error::CdfError;
+pub use file::CdfFile;
 pub use fit::fit_table;
 pub use model::{Component, InverseCdf, KnownPart, RationalCdf};
 pub use report::{CdfFitReport, ComponentReport};

@@ -336,6 +336,31 @@ pub struct SamplerRow {
     pub reference: Quadrature,
 }
 
+/// Rows of [`compare_samplers`] as an aligned text table (one header
+/// line): views, samplers, bytes, time and per-channel variance.
+pub fn rows_text(rows: &[SamplerRow]) -> String {
+    let mut s = format!(
+        "{:>5} {:<10} {:>10} {:>8} {:>11} {:>11} {:>11} {:>10} {:>10}\n",
+        "view", "sampler", "bytes", "ns/smp", "var R", "var G", "var B", "mean G", "quad G"
+    );
+    for r in rows {
+        let e = &r.estimate;
+        s.push_str(&format!(
+            "{:>5.0} {:<10} {:>10} {:>8.0} {:>11.3e} {:>11.3e} {:>11.3e} {:>10.5} {:>10.5}\n",
+            r.view_deg,
+            r.sampler,
+            r.bytes,
+            e.ns_per_sample,
+            e.variance[0],
+            e.variance[1],
+            e.variance[2],
+            e.mean[1],
+            r.reference.value[1]
+        ));
+    }
+    s
+}
+
 /// Variance of one sample over the squared albedo (the quadrature value),
 /// averaged over the channels: the row's variance independent of the
 /// material's brightness.

@@ -171,15 +171,6 @@ impl Entry {
     }
 }
 
-/// The format of a file from its extension, when the entry does not say.
-fn format_of(path: &Path) -> Option<&'static str> {
-    match path.extension()?.to_str()? {
-        "bsdf" => Some("rgl"),
-        "binary" => Some("merl"),
-        _ => None,
-    }
-}
-
 /// Reads and checks the manifest.
 fn read_manifest(path: &Path) -> Result<Vec<Entry>> {
     let text =
@@ -244,13 +235,13 @@ fn read_manifest(path: &Path) -> Result<Vec<Entry>> {
             )));
         }
         if !options.contains_key("format") {
-            let f = format_of(&input).with_context(|| {
+            let f = brdf::TableFormat::of_path(&input).with_context(|| {
                 at(format!(
                     "material `{name}`: no `format`, and {} is neither .bsdf (rgl) nor .binary (merl)",
                     input.display()
                 ))
             })?;
-            options.insert("format".into(), toml::Value::String(f.into()));
+            options.insert("format".into(), toml::Value::String(f.name().into()));
         }
         entries.push(Entry {
             name,
@@ -345,7 +336,7 @@ pub fn run_batch(args: BatchArgs) -> Result<()> {
             eprintln!("{}: failed: {msg}", e.name);
         }
         outcomes.insert(k, outcome);
-        if crate::interrupt::requested() {
+        if crate::process::requested() {
             // The interrupted material counts as failed; the rest wait.
             break;
         }
@@ -419,8 +410,8 @@ fn write_summary(
         let fitted = value
             .as_ref()
             .zip(file.as_deref())
-            .and_then(|(v, f)| crate::brdf_cmd::load_fitted(v, f))
-            .and_then(Result::ok);
+            .and_then(|(v, f)| brdf::FitFile::from_value(v.clone(), f).ok())
+            .map(|file| file.brdf);
         let number = |p: &str| {
             value
                 .as_ref()

@@ -2,8 +2,8 @@
 
 use anyhow::{bail, Context, Result};
 use brdf::{
-    fit_brdf, fit_samples, AltaData, Brdf, BrdfFitSettings, Coordinates, FittedBrdf, MerlBrdf,
-    Reduction, ReductionKind, RglBrdf, ScatteredBrdf,
+    fit_brdf, fit_samples, AltaData, Brdf, BrdfFitSettings, Coordinates, FittedBrdf, Reduction,
+    ReductionKind, ScatteredBrdf,
 };
 use clap::Args;
 use rational_core::{Backend, FitSettings, PoleControl, Search};
@@ -131,13 +131,9 @@ pub struct FitArgs {
     output: PathBuf,
 }
 
-/// Loads a material file by format name.
+/// Loads a material file by format name (merl, rgl).
 pub fn load_material(path: &Path, format: &str) -> Result<Box<dyn Brdf>> {
-    Ok(match format {
-        "merl" => Box::new(MerlBrdf::read(path)?),
-        "rgl" => Box::new(RglBrdf::read(path)?),
-        other => bail!("unknown format `{other}` (merl, rgl, cornell, alta)"),
-    })
+    Ok(format.parse::<brdf::TableFormat>()?.read(path)?)
 }
 
 fn reduction(args: &FitArgs) -> Result<Reduction> {
@@ -192,7 +188,7 @@ pub fn fit_to_json(args: &FitArgs) -> Result<serde_json::Value> {
         .with_backend(args.backend)?
         .with_pole_control(args.poles)
         .with_search(args.search.unwrap_or(Search::Staircase))
-        .with_cancel(crate::interrupt::flag());
+        .with_cancel(crate::process::flag());
     if !args.degree_weights.is_empty() {
         fit_settings = fit_settings.with_degree_weights(args.degree_weights.clone())?;
     }
@@ -253,7 +249,7 @@ pub fn fit_to_json(args: &FitArgs) -> Result<serde_json::Value> {
         } else {
             Some((
                 peak_check(material.as_ref(), &f),
-                render_check(material, &f)?,
+                render_cpu::fidelity::render_check(material, &f)?,
             ))
         };
         (f, r, render)
@@ -276,26 +272,6 @@ pub fn fit_to_json(args: &FitArgs) -> Result<serde_json::Value> {
 fn peak_check(table: &dyn Brdf, fitted: &FittedBrdf) -> brdf::fidelity::FitPeaks {
     let grid = brdf::fidelity::HemisphereSettings::default().grid;
     brdf::fidelity::fit_peaks(table, fitted, grid)
-}
-
-/// What a user judges: the fit's renders against the table's on the two
-/// validation scenes of `ratfit bench fidelity`, small and quick (64 x 64
-/// pixels, 64 sky samples).
-fn render_check(
-    table: std::sync::Arc<dyn Brdf>,
-    fitted: &FittedBrdf,
-) -> Result<render_cpu::fidelity::RenderErrors> {
-    let validation = render_cpu::fidelity::ValidationSettings {
-        size: 64,
-        sky_spp: 64,
-        ..Default::default()
-    };
-    let validator = render_cpu::fidelity::Validator::new(table, validation)?;
-    let mut errors = validator.measure(std::sync::Arc::new(render_cpu::FitInDomain::new(
-        fitted.clone(),
-    )))?;
-    errors.images.clear();
-    Ok(errors)
 }
 
 fn describe_render(r: &render_cpu::fidelity::RenderErrors) -> String {
@@ -421,21 +397,7 @@ pub fn read_json(path: &Path) -> Result<serde_json::Value> {
 
 /// Reads a fitted BRDF file written by `ratfit fit`.
 pub fn read_fitted(path: &Path) -> Result<FittedBrdf> {
-    load_fitted(&read_json(path)?, path).with_context(|| {
-        format!(
-            "{} is not a BRDF fit (write one with `ratfit fit`)",
-            path.display()
-        )
-    })?
-}
-
-/// Loads the fitted BRDF of `path` (a `ratfit fit` output read as
-/// `value`); `None` when it holds none.
-pub fn load_fitted(value: &serde_json::Value, path: &Path) -> Option<Result<FittedBrdf>> {
-    value.get("brdf").map(|b| {
-        serde_json::from_value(b.clone())
-            .with_context(|| format!("{}: malformed fitted BRDF", path.display()))
-    })
+    Ok(brdf::FitFile::read(path)?.brdf)
 }
 
 /// `r,g,b` per row of `theta_i,phi_i,theta_o,phi_o`.

@@ -1,17 +1,16 @@
 //! `ratfit cdf` and `ratfit sample-stats`: rational inverse CDFs of a material
 //! and the variance of the three samplers.
 
-use crate::brdf_cmd::{load_fitted, load_material, read_json};
+use crate::brdf_cmd::{load_material, read_json};
 use anyhow::{bail, Context, Result};
 use brdf::Brdf;
 use cdf::{
-    compare_samplers, fit_table, fit_table_to_variance, CdfFitReport, CdfFitSettings, CdfTable,
-    CosineSampler, RationalCdf, RationalSampler, Sampler, SamplerRow, TableSettings,
-    TabulatedSampler,
+    compare_samplers, fit_table, fit_table_to_variance, CdfFile, CdfFitSettings, CdfTable,
+    CosineSampler, RationalSampler, Sampler, SamplerRow, TableSettings, TabulatedSampler,
 };
 use clap::Args;
 use rational_core::FitSettings;
-use serde::{Deserialize, Serialize};
+use serde::Serialize;
 use std::path::{Path, PathBuf};
 
 /// Options of `ratfit cdf`.
@@ -81,18 +80,6 @@ pub struct StatsArgs {
     csv: Option<PathBuf>,
 }
 
-/// What `ratfit cdf` writes.
-#[derive(Serialize, Deserialize)]
-pub struct CdfFile {
-    /// The fitted inverse CDFs.
-    pub cdf: RationalCdf,
-    /// The table they were fitted to (rebuilt for the tabulated sampler).
-    pub table: TableSettings,
-    /// The fit report.
-    #[serde(skip_deserializing)]
-    pub report: Option<CdfFitReport>,
-}
-
 fn pair(s: &str, what: &str) -> Result<(usize, usize)> {
     s.split_once(',')
         .and_then(|(a, b)| Some((a.trim().parse().ok()?, b.trim().parse().ok()?)))
@@ -104,13 +91,13 @@ pub fn material_from(path: &Path, format: Option<&str>) -> Result<Box<dyn Brdf>>
     match format {
         Some("fit") | None => {
             let value = read_json(path)?;
-            match load_fitted(&value, path) {
-                Some(f) => Ok(Box::new(f?)),
-                None => bail!(
+            if !brdf::FitFile::is_fit_file(&value) {
+                bail!(
                     "{} is not a BRDF fit; give --format merl or rgl for a measured file",
                     path.display()
-                ),
+                );
             }
+            Ok(Box::new(brdf::FitFile::from_value(value, path)?.brdf))
         }
         Some(f) => load_material(path, f),
     }
@@ -134,7 +121,7 @@ pub fn run_cdf(args: CdfArgs) -> Result<()> {
     let settings = CdfFitSettings::default()
         .with_tolerance(args.tol, 1e-3)?
         .with_max_coeffs(mt, mp)?
-        .with_engine(FitSettings::default().with_cancel(crate::interrupt::flag()));
+        .with_engine(FitSettings::default().with_cancel(crate::process::flag()));
     let (cdf, report) = match (!args.fixed_tol).then_some(args.max_variance_ratio) {
         None => fit_table(&table, &settings)?,
         Some(ratio) => {
@@ -192,44 +179,8 @@ pub fn run_cdf(args: CdfArgs) -> Result<()> {
     Ok(())
 }
 
-pub fn read_cdf(path: &Path) -> Result<CdfFile> {
-    let text =
-        std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
-    // Deserialisation checks the inverse CDFs and the table settings.
-    serde_json::from_str(&text).with_context(|| {
-        format!(
-            "{} is not written by `ratfit cdf`, or fails its checks",
-            path.display()
-        )
-    })
-}
-
-/// Rows of `sample-stats` as text.
-pub fn format_rows(rows: &[SamplerRow]) -> String {
-    let mut s = format!(
-        "{:>5} {:<10} {:>10} {:>8} {:>11} {:>11} {:>11} {:>10} {:>10}\n",
-        "view", "sampler", "bytes", "ns/smp", "var R", "var G", "var B", "mean G", "quad G"
-    );
-    for r in rows {
-        let e = &r.estimate;
-        s.push_str(&format!(
-            "{:>5.0} {:<10} {:>10} {:>8.0} {:>11.3e} {:>11.3e} {:>11.3e} {:>10.5} {:>10.5}\n",
-            r.view_deg,
-            r.sampler,
-            r.bytes,
-            e.ns_per_sample,
-            e.variance[0],
-            e.variance[1],
-            e.variance[2],
-            e.mean[1],
-            r.reference.value[1]
-        ));
-    }
-    s
-}
-
 pub fn run_stats(args: StatsArgs) -> Result<()> {
-    let file = read_cdf(&args.cdf)?;
+    let file = CdfFile::read(&args.cdf)?;
     let material = material_from(&args.material, args.format.as_deref())?;
     let views: Vec<f64> = args
         .views
@@ -264,38 +215,54 @@ pub fn run_stats(args: StatsArgs) -> Result<()> {
         material.name(),
         args.samples
     );
-    print!("{}", format_rows(&rows));
+    print!("{}", cdf::stats::rows_text(&rows));
     if let Some(path) = args.csv {
-        crate::output::write(&path, csv_rows(&material.name(), &rows))?;
+        let name = material.name();
+        crate::output::write_csv(&path, rows.iter().map(|r| CsvRow::of(&name, r)))?;
         eprintln!("wrote {}", path.display());
     }
     Ok(())
 }
 
-/// CSV of comparison rows (one header line).
-pub fn csv_rows(material: &str, rows: &[SamplerRow]) -> String {
-    let mut s = String::from(
-        "material,view_deg,sampler,bytes,samples,ns_per_sample,mean_r,mean_g,mean_b,var_r,var_g,var_b,quad_r,quad_g,quad_b\n",
-    );
-    for r in rows {
-        let e = &r.estimate;
-        s.push_str(&format!(
-            "{material},{},{},{},{},{:.1},{:e},{:e},{:e},{:e},{:e},{:e},{:e},{:e},{:e}\n",
-            r.view_deg,
-            r.sampler,
-            r.bytes,
-            e.samples,
-            e.ns_per_sample,
-            e.mean[0],
-            e.mean[1],
-            e.mean[2],
-            e.variance[0],
-            e.variance[1],
-            e.variance[2],
-            r.reference.value[0],
-            r.reference.value[1],
-            r.reference.value[2]
-        ));
+/// One CSV row of `sample-stats --csv`.
+#[derive(Serialize)]
+struct CsvRow<'a> {
+    material: &'a str,
+    view_deg: f64,
+    sampler: &'a str,
+    bytes: usize,
+    samples: usize,
+    ns_per_sample: f64,
+    mean_r: f64,
+    mean_g: f64,
+    mean_b: f64,
+    var_r: f64,
+    var_g: f64,
+    var_b: f64,
+    quad_r: f64,
+    quad_g: f64,
+    quad_b: f64,
+}
+
+impl<'a> CsvRow<'a> {
+    fn of(material: &'a str, r: &'a SamplerRow) -> Self {
+        let (e, q) = (&r.estimate, &r.reference.value);
+        Self {
+            material,
+            view_deg: r.view_deg,
+            sampler: &r.sampler,
+            bytes: r.bytes,
+            samples: e.samples,
+            ns_per_sample: e.ns_per_sample,
+            mean_r: e.mean[0],
+            mean_g: e.mean[1],
+            mean_b: e.mean[2],
+            var_r: e.variance[0],
+            var_g: e.variance[1],
+            var_b: e.variance[2],
+            quad_r: q[0],
+            quad_g: q[1],
+            quad_b: q[2],
+        }
     }
-    s
 }

@@ -3,14 +3,10 @@
 mod batch;
 mod brdf_cmd;
 mod cdf_cmd;
-mod csv;
 mod demo;
-mod interrupt;
-mod npy;
-mod plot;
 mod render_cmd;
 
-use ratfit_bench::{args, canvas, output, progress};
+use ratfit_bench::{args, numeric_csv, output, process, progress, slices};
 
 use anyhow::{bail, Context, Result};
 use clap::{Args, Parser, Subcommand};
@@ -86,9 +82,9 @@ enum Command {
         material: PathBuf,
         /// Its format: merl or rgl.
         #[arg(long)]
-        format: String,
+        format: brdf::TableFormat,
         /// Channel: r, g or b.
-        #[arg(long, default_value = "g")]
+        #[arg(long, default_value = "g", value_parser = ["r", "g", "b"])]
         channel: String,
         /// Output PNG.
         #[arg(short = 'o', long = "output")]
@@ -203,7 +199,7 @@ impl FitArgs {
             .with_selection(self.selection)
             .with_search(self.search)
             .with_pole_control(self.poles)
-            .with_cancel(interrupt::flag());
+            .with_cancel(process::flag());
         if self.max_widenings > 0 {
             s = s.with_widening(self.widen, self.max_widenings)?;
         }
@@ -219,7 +215,7 @@ impl FitArgs {
 
 impl DataArgs {
     fn load(&self) -> Result<IntervalData> {
-        let rows = csv::read_numeric(&self.data)?;
+        let rows = numeric_csv::read_numeric(&self.data)?;
         let width = rows[0].len();
         let extra = if self.intervals { 2 } else { 1 };
         let dims = self.dims.unwrap_or(width.saturating_sub(extra));
@@ -267,39 +263,21 @@ fn load_function(value: &serde_json::Value, path: &Path) -> Result<RationalFunct
         .with_context(|| format!("{} does not hold a rational function", path.display()))
 }
 
-/// A reader that stops early (`ratfit demo | head`) closes our standard
-/// output; printing then fails with a broken pipe, which is not an error of
-/// ours: exit quietly instead of reporting a panic.
-fn exit_quietly_on_broken_pipe() {
-    let default = std::panic::take_hook();
-    std::panic::set_hook(Box::new(move |info| {
-        let message = info
-            .payload()
-            .downcast_ref::<String>()
-            .map(String::as_str)
-            .or_else(|| info.payload().downcast_ref::<&str>().copied())
-            .unwrap_or("");
-        if message.contains("Broken pipe") {
-            std::process::exit(0);
-        }
-        default(info);
-    }));
-}
-
 /// `ratfit eval`: a fit at points or at direction pairs.
 fn run_eval(path: &Path, points: Option<PathBuf>, directions: Option<PathBuf>) -> Result<()> {
     let value = brdf_cmd::read_json(path)?;
-    if let Some(fitted) = brdf_cmd::load_fitted(&value, path) {
+    if brdf::FitFile::is_fit_file(&value) {
+        let fitted = brdf::FitFile::from_value(value, path)?.brdf;
         let dirs = directions.context("a BRDF fit is evaluated at --directions")?;
         print!(
             "{}",
-            brdf_cmd::eval_directions(&fitted?, &csv::read_numeric(&dirs)?)?
+            brdf_cmd::eval_directions(&fitted, &numeric_csv::read_numeric(&dirs)?)?
         );
         return Ok(());
     }
     let f = load_function(&value, path)?;
     let points = points.context("a fit-csv fit is evaluated at --points")?;
-    let rows = csv::read_numeric(&points)?;
+    let rows = numeric_csv::read_numeric(&points)?;
     if rows[0].len() != f.dim() {
         bail!(
             "{}: {} columns, the fit takes {} coordinates",
@@ -379,8 +357,8 @@ fn run_dump_qp(data: DataArgs, basis: BasisFamily, split: &str, out: &Path) -> R
         .with_value_scaling(false);
     let p = Fitter::new(&d).settings(settings).problem(np, nq)?;
     std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
-    npy::write_f64(&out.join("G.npy"), &[p.rows(), p.cols()], &p.g())?;
-    npy::write_f64(&out.join("h.npy"), &[p.rows()], p.h())?;
+    output::write_npy(&out.join("G.npy"), &[p.rows(), p.cols()], &p.g())?;
+    output::write_npy(&out.join("h.npy"), &[p.rows()], p.h())?;
     println!(
         "wrote {}/G.npy ({} x {}) and h.npy: minimise ||c||^2 s.t. G c >= h, c = (a[0..{np}], b[0..{nq}]), {basis} basis on the data's bounding box",
         out.display(),
@@ -391,18 +369,18 @@ fn run_dump_qp(data: DataArgs, basis: BasisFamily, split: &str, out: &Path) -> R
 }
 
 fn main() {
-    exit_quietly_on_broken_pipe();
-    interrupt::install();
+    process::exit_quietly_on_broken_pipe();
+    process::install();
     let Err(e) = run(Cli::parse()) else {
         return;
     };
     progress::finish();
-    if interrupt::requested() {
+    if process::requested() {
         eprintln!(
             "interrupted: {}; the interrupted fit wrote nothing",
             output::chain_text(&e)
         );
-        std::process::exit(interrupt::EXIT_INTERRUPTED);
+        std::process::exit(process::EXIT_INTERRUPTED);
     }
     eprintln!("error: {}", output::chain_text(&e));
     if let Some(hint) = flag_hint(&e) {
@@ -468,19 +446,12 @@ fn run(cli: Cli) -> Result<()> {
             output,
         } => {
             let fitted = brdf_cmd::read_fitted(&path)?;
-            let data = brdf_cmd::load_material(&material, &format)?;
-            let c = match channel.as_str() {
-                "r" => 0,
-                "g" => 1,
-                "b" => 2,
-                other => bail!("unknown channel `{other}` (r, g, b)"),
-            };
-            let cut = fitted.reduction.max_theta_d_deg;
-            let degs: Vec<f64> = [0.0, 20.0, 40.0, 60.0, cut]
-                .into_iter()
-                .filter(|d| *d <= cut)
-                .collect();
-            plot::slices(data.as_ref(), &fitted, c, &degs, &output)?;
+            let data = format.read(&material)?;
+            let c = "rgb"
+                .find(channel.as_str())
+                .expect("clap checks the channel");
+            let degs = slices::theta_d_deg(&fitted);
+            slices::draw(data.as_ref(), &fitted, c, &degs, &output)?;
             eprintln!(
                 "wrote {} (theta_d = {degs:?} degrees; dots: data, lines: fit)",
                 output.display()

@@ -5,12 +5,12 @@
 use crate::errors::{brdf_error, json_error, render_error};
 use crate::function::RationalFit;
 use crate::options::{directions, json_to_py, py_to_json, BrdfOptions};
-use brdf::{Brdf, FittedBrdf, MerlBrdf, RglBrdf};
+use brdf::{Brdf, FitFile, FittedBrdf, TableFormat};
 use numpy::{AllowTypeChange, PyArray2, PyArrayLikeDyn};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict, PyTuple};
-use render_cpu::fidelity::{fit_to_target, TargetReduction, ValidationSettings, Validator};
+use render_cpu::fidelity::{fit_to_target, TargetReduction, ValidationSettings};
 use std::path::Path;
 use std::sync::Arc;
 
@@ -48,13 +48,11 @@ fn eval_pairs<'py>(
     PyArray2::from_vec2(py, &values).map_err(|e| PyValueError::new_err(e.to_string()))
 }
 
-fn read_table(py: Python<'_>, path: &str, format: &str) -> PyResult<Arc<dyn Brdf>> {
-    let p = Path::new(path);
-    let table: Arc<dyn Brdf> = match format {
-        "merl" => Arc::new(MerlBrdf::read(p).map_err(|e| brdf_error(py, e))?),
-        _ => Arc::new(RglBrdf::read(p).map_err(|e| brdf_error(py, e))?),
-    };
-    Ok(table)
+fn read_table(py: Python<'_>, path: &str, format: TableFormat) -> PyResult<Arc<dyn Brdf>> {
+    let table = format
+        .read(Path::new(path))
+        .map_err(|e| brdf_error(py, e))?;
+    Ok(table.into())
 }
 
 /// Reads a MERL (`.binary`) or RGL (`.bsdf`) table; `format` overrides the
@@ -66,9 +64,9 @@ pub fn read_material(py: Python<'_>, path: &str, format: Option<String>) -> PyRe
         format,
         ..Default::default()
     };
-    let format = options.format(path)?.to_string();
+    let format = options.format(path)?;
     let path_owned = path.to_string();
-    let table = read_table(py, &path_owned, &format)?;
+    let table = read_table(py, &path_owned, format)?;
     Ok(Material {
         table,
         path: path_owned,
@@ -114,19 +112,12 @@ pub struct FittedMaterial {
     extra: serde_json::Map<String, serde_json::Value>,
 }
 
-/// The render check of `ratfit fit`: both validation scenes at 64 x 64.
+/// The render check of `ratfit fit`, as JSON.
 fn render_check(
     table: Arc<dyn Brdf>,
     fitted: &FittedBrdf,
 ) -> Result<serde_json::Value, render_cpu::RenderError> {
-    let validation = ValidationSettings {
-        size: 64,
-        sky_spp: 64,
-        ..Default::default()
-    };
-    let validator = Validator::new(table, validation)?;
-    let mut errors = validator.measure(Arc::new(render_cpu::FitInDomain::new(fitted.clone())))?;
-    errors.images.clear();
+    let errors = render_cpu::fidelity::render_check(table, fitted)?;
     Ok(serde_json::to_value(&errors).unwrap_or_default())
 }
 
@@ -356,31 +347,22 @@ impl FittedMaterial {
     /// The JSON `ratfit fit` writes (`{"brdf": ..., "report": ..., ...}`),
     /// which every command that takes a fit file reads.
     fn to_json(&self) -> PyResult<String> {
-        let mut map = self.extra.clone();
-        map.insert(
-            "brdf".into(),
-            serde_json::to_value(&self.fitted).map_err(|e| json_error("fit", e))?,
-        );
-        serde_json::to_string_pretty(&serde_json::Value::Object(map))
-            .map_err(|e| json_error("fit", e))
+        let file = FitFile {
+            brdf: self.fitted.clone(),
+            extra: self.extra.clone(),
+        };
+        serde_json::to_string_pretty(&file.to_value()).map_err(|e| json_error("fit", e))
     }
 
     /// Reads what `to_json` or `ratfit fit` wrote, validated.
     #[staticmethod]
     fn from_json(text: &str) -> PyResult<Self> {
-        let value: serde_json::Value =
-            serde_json::from_str(text).map_err(|e| json_error("not JSON", e))?;
-        let serde_json::Value::Object(mut extra) = value else {
-            return Err(PyValueError::new_err(
-                "not a BRDF fit: expected an object with a `brdf` entry (write one with `ratfit fit`)",
-            ));
-        };
-        let brdf = extra.remove("brdf").ok_or_else(|| {
-            PyValueError::new_err("not a BRDF fit: no `brdf` entry (write one with `ratfit fit`)")
-        })?;
-        let fitted: FittedBrdf =
-            serde_json::from_value(brdf).map_err(|e| json_error("malformed fitted BRDF", e))?;
-        Ok(Self { fitted, extra })
+        let file = FitFile::parse(text, std::path::Path::new("<text>"))
+            .map_err(|e| PyValueError::new_err(e.to_string()))?;
+        Ok(Self {
+            fitted: file.brdf,
+            extra: file.extra,
+        })
     }
 
     /// Pickling (Dask moves fits between processes) through the JSON.

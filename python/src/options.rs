@@ -3,7 +3,7 @@
 //! are the flags of `ratfit fit`), checked by name.
 
 use crate::errors::fit_error;
-use brdf::{BrdfFitSettings, ColourMode, Coordinates, Reduction, ReductionKind};
+use brdf::{BrdfFitSettings, ColourMode, Coordinates, Reduction, ReductionKind, TableFormat};
 use numpy::{AllowTypeChange, PyArrayLikeDyn};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
@@ -235,21 +235,22 @@ impl BrdfOptions {
 
     /// The file format: the option, else from the extension (`.binary`:
     /// MERL, `.bsdf`: RGL).
-    pub fn format(&self, path: &str) -> PyResult<&str> {
+    pub fn format(&self, path: &str) -> PyResult<TableFormat> {
         match self.format.as_deref() {
-            Some(f @ ("merl" | "rgl")) => Ok(f),
-            Some(other) => Err(bad(
-                "format",
-                format!("`{other}`: the Python package reads merl and rgl tables"),
-            )),
-            None if path.ends_with(".binary") => Ok("merl"),
-            None if path.ends_with(".bsdf") => Ok("rgl"),
-            None => Err(bad(
-                "format",
-                format!(
-                    "{path}: cannot tell the format from the name; give format=\"merl\" or \"rgl\""
-                ),
-            )),
+            Some(f) => f.parse().map_err(|_| {
+                bad(
+                    "format",
+                    format!("`{f}`: the Python package reads merl and rgl tables"),
+                )
+            }),
+            None => TableFormat::of_path(std::path::Path::new(path)).ok_or_else(|| {
+                bad(
+                    "format",
+                    format!(
+                        "{path}: cannot tell the format from the name; give format=\"merl\" or \"rgl\""
+                    ),
+                )
+            }),
         }
     }
 

@@ -292,6 +292,31 @@ impl Validator {
     }
 }
 
+/// The validation renders of the check `ratfit fit` runs after a fit
+/// (and the Python package's `render_check`): both scenes, small and quick.
+pub const RENDER_CHECK: ValidationSettings = ValidationSettings {
+    size: 64,
+    lights_spp: 1,
+    sky_spp: 64,
+    seed: 1,
+};
+
+/// A fit's render errors against its table on the validation scenes at
+/// [`RENDER_CHECK`]'s size (images dropped): what a user judges, measured
+/// in seconds.
+///
+/// # Errors
+/// As [`Validator::new`] and [`Validator::measure`].
+pub fn render_check(
+    table: Arc<dyn Brdf>,
+    fitted: &brdf::FittedBrdf,
+) -> Result<RenderErrors, RenderError> {
+    let validator = Validator::new(table, RENDER_CHECK)?;
+    let mut errors = validator.measure(Arc::new(crate::FitInDomain::new(fitted.clone())))?;
+    errors.images.clear();
+    Ok(errors)
+}
+
 /// The reference, the candidate and their CIEDE2000 map (false colour,
 /// white at `de_full_scale`) side by side as one sRGB image of three times
 /// the width: `(width, height, rgb8)`, tone-mapped as `Image::write` does at

@@ -4,8 +4,12 @@
 
 pub(crate) mod alta;
 pub(crate) mod cornell;
+pub mod fit_file;
 pub mod merl;
 pub mod rgl;
+mod table_format;
+
+pub use table_format::TableFormat;
 
 /// The whitespace-separated numbers of a text line; `None` if any token is
 /// not a number.

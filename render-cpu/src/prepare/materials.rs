@@ -7,8 +7,8 @@ use crate::description::{MaterialDescription, SamplerKind};
 use crate::error::{io, RenderError};
 use crate::scene::{ClosedForm, FitInDomain};
 use brdf::{
-    AshikhminShirley, BlinnPhong, Brdf, BrdfFitSettings, CookTorranceGgx, FittedBrdf, Lambert,
-    MerlBrdf, Reduction, ReductionKind, RglBrdf,
+    AshikhminShirley, BlinnPhong, Brdf, BrdfFitSettings, CookTorranceGgx, FitFile, FittedBrdf,
+    Lambert, Reduction, ReductionKind,
 };
 use cdf::{
     CdfFitSettings, CdfTable, CosineSampler, RationalCdf, RationalSampler, Sampler, TableSettings,
@@ -252,22 +252,17 @@ impl MaterialBuilder<'_> {
             }
             MaterialDescription::Measured { format, path } => {
                 let p = resolve_path(self.base, &path)?;
-                let (b, bytes): (Arc<dyn Brdf>, usize) = match format.as_str() {
-                    "merl" => (
-                        Arc::new(MerlBrdf::read(&p).map_err(|e| self.material_error(name, e))?),
-                        brdf::merl::FILE_SIZE,
-                    ),
-                    "rgl" => (
-                        Arc::new(RglBrdf::read(&p).map_err(|e| self.material_error(name, e))?),
-                        std::fs::metadata(&p).map(|m| m.len() as usize).unwrap_or(0),
-                    ),
-                    other => {
-                        return Err(scene_error(
-                            self.origin,
-                            format!("materials.{name}: unknown format `{other}` (merl, rgl)"),
-                        ))
-                    }
-                };
+                let table_format = format.parse::<brdf::TableFormat>().map_err(|_| {
+                    scene_error(
+                        self.origin,
+                        format!("materials.{name}: unknown format `{format}` (merl, rgl)"),
+                    )
+                })?;
+                let b: Arc<dyn Brdf> = table_format
+                    .read(&p)
+                    .map_err(|e| self.material_error(name, e))?
+                    .into();
+                let bytes = table_format.stored_bytes(&p);
                 let d = format!("{format} table {}", p.display());
                 log.push(
                     Action::Prepared,
@@ -279,14 +274,9 @@ impl MaterialBuilder<'_> {
             }
             MaterialDescription::Fit { path } => {
                 let p = resolve_path(self.base, &path)?;
-                let text = std::fs::read_to_string(&p).map_err(|e| io(&p, e))?;
-                let v: serde_json::Value = serde_json::from_str(&text).map_err(|e| {
-                    scene_error(self.origin, format!("{}: not JSON: {e}", p.display()))
-                })?;
-                let fitted: FittedBrdf =
-                    serde_json::from_value(v.get("brdf").cloned().unwrap_or(v)).map_err(|e| {
-                        scene_error(self.origin, format!("{}: not a BRDF fit: {e}", p.display()))
-                    })?;
+                let fitted = FitFile::read(&p)
+                    .map_err(|e| scene_error(self.origin, e.to_string()))?
+                    .brdf;
                 let bytes = fitted.byte_size_f32();
                 let d = format!(
                     "rational fit {} ({} coefficients)",

@@ -1,4 +1,6 @@
-//! Ctrl-C. A command that can stop cleanly (the fits) asks for the shared
+//! The binaries' process plumbing.
+//!
+//! Ctrl-C: a command that can stop cleanly (the fits) asks for the shared
 //! flag: the first Ctrl-C sets it, the sweep stops within one active-set
 //! change, and the command ends with status 130 writing nothing. A second
 //! Ctrl-C, or the first during any other command, ends the process at once
@@ -46,4 +48,23 @@ pub fn flag() -> Arc<AtomicBool> {
 /// Whether Ctrl-C asked the command to stop.
 pub fn requested() -> bool {
     stop().load(Ordering::SeqCst)
+}
+
+/// A reader that stops early (`ratfit demo | head`) closes our standard
+/// output; printing then fails with a broken pipe, which is not an error of
+/// ours: exit quietly instead of reporting a panic.
+pub fn exit_quietly_on_broken_pipe() {
+    let default = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        let message = info
+            .payload()
+            .downcast_ref::<String>()
+            .map(String::as_str)
+            .or_else(|| info.payload().downcast_ref::<&str>().copied())
+            .unwrap_or("");
+        if message.contains("Broken pipe") {
+            std::process::exit(0);
+        }
+        default(info);
+    }));
 }
