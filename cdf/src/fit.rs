@@ -2,11 +2,14 @@
 //! data are the tabulated inverse CDFs with intervals taken in CDF space
 //! (`[F^-1(u - delta), F^-1(u + delta)]`: narrow where the density is high,
 //! wide where it is low), the known part of the model subtracted, and the
-//! monotonicity rows added; the budget is searched by doubling and bisection
-//! over five splits per budget (rational-core's `Search::Probe`);
-//! monotonicity is then checked on a grid denser than the data, and points
-//! where the derivative is negative are added as constraints before solving
-//! again.
+//! monotonicity rows added at the samples; the budget is searched by
+//! doubling and bisection over five splits per budget (rational-core's
+//! `Search::Probe`). Each verified candidate is then checked for
+//! monotonicity on a grid denser than the data, through rational-core's
+//! refinement hook ([`ExtraConstraints::refine`]): where the derivative is
+//! negative, the point's interval and monotonicity rows are added and the
+//! split is solved again, so a split is accepted only when monotone on the
+//! whole grid.
 
 use crate::model::{Component, InverseCdf, RationalCdf};
 use crate::monotone::{MonotonePoint, MonotoneRows};
@@ -14,10 +17,12 @@ use crate::report::{CdfFitReport, ComponentReport};
 use crate::settings::CdfFitSettings;
 use crate::{CdfError, CdfTable};
 use rational_core::{
-    Domain, FitError, FitSettings, Fitter, IntervalData, PoleControl, RationalFunction, Search,
+    Basis, Domain, ExtraConstraints, FitError, FitSettings, Fitter, IntervalData, PoleControl,
+    RationalFunction, Refinement, Search,
 };
 use rayon::prelude::*;
 use std::f64::consts::FRAC_PI_2;
+use std::sync::Mutex;
 use std::time::Instant;
 
 /// Fits both inverse CDFs of `table`.
@@ -219,7 +224,6 @@ fn assemble(
     table: &CdfTable,
     c: Component,
     natural: &[f64],
-    zero_weight_checks: &[f64],
     delta: f64,
     min_half: f64,
 ) -> Result<Assembled, CdfError> {
@@ -257,17 +261,6 @@ fn assemble(
             },
         );
     }
-    for x in zero_weight_checks.chunks(d) {
-        let known = c.known_part(x);
-        monotone.push(
-            &c.fit_coordinates(x),
-            MonotonePoint {
-                known,
-                lo: 0.0,
-                hi: 0.0,
-            },
-        );
-    }
     debug_assert_eq!(values.len(), n);
     Ok(Assembled {
         data,
@@ -287,28 +280,123 @@ fn domain(c: Component, max_view: f64) -> Result<Domain, CdfError> {
     })
 }
 
+/// The monotonicity of an inverse CDF as rational-core's extra
+/// constraints: rows at the samples up front, then, on each verified
+/// candidate, a check on the dense grid; where the derivative is negative
+/// (or `q` not positive) the point's interval rows and monotonicity rows are
+/// added and the split solved again, at most `max_rounds` times.
+struct MonotoneRefiner<'a> {
+    table: &'a CdfTable,
+    c: Component,
+    delta: f64,
+    min_half: f64,
+    at_samples: &'a MonotoneRows,
+    checks: &'a [f64],
+    max_rounds: usize,
+    /// The last split refused: smallest derivative, where, rounds.
+    refused: Mutex<Option<(f64, Vec<f64>, usize)>>,
+}
+
+impl MonotoneRefiner<'_> {
+    /// Interval and monotonicity rows at the natural points `failing`.
+    fn rows_at(&self, failing: &[f64], basis: &Basis, n_p: usize, n_q: usize) -> Vec<Vec<f64>> {
+        let mut monotone = MonotoneRows::new(self.c.dim(), self.c.sampled());
+        let mut rows = Vec::new();
+        let mut phi = vec![0.0; basis.len()];
+        for x in failing.chunks(self.c.dim()) {
+            let known = self.c.known_part(x);
+            let fit_x = self.c.fit_coordinates(x);
+            if known.weight == 0.0 {
+                monotone.push(
+                    &fit_x,
+                    MonotonePoint {
+                        known,
+                        lo: 0.0,
+                        hi: 0.0,
+                    },
+                );
+                continue;
+            }
+            // The rational part's bounds, as `IntervalData::with_known_part`.
+            let (l, h, _) = interval_at(self.table, self.c, x, self.delta, self.min_half);
+            let (a, b) = (
+                (l - known.base) / known.weight,
+                (h - known.base) / known.weight,
+            );
+            let (lo, hi) = (a.min(b), a.max(b));
+            basis.eval_into(&fit_x, &mut phi);
+            let side = |sign: f64, bound: f64| -> Vec<f64> {
+                let numerator = phi[..n_p].iter().map(|v| sign * v);
+                numerator
+                    .chain(phi[..n_q].iter().map(|v| -sign * bound * v))
+                    .collect()
+            };
+            rows.push(side(1.0, lo));
+            rows.push(side(-1.0, hi));
+            monotone.push(&fit_x, MonotonePoint { known, lo, hi });
+        }
+        rows.extend(monotone.rows(basis, n_p, n_q));
+        rows
+    }
+}
+
+impl ExtraConstraints for MonotoneRefiner<'_> {
+    fn rows(&self, basis: &Basis, n_p: usize, n_q: usize) -> Vec<Vec<f64>> {
+        self.at_samples.rows(basis, n_p, n_q)
+    }
+
+    fn refine(&self, candidate: &RationalFunction, round: usize) -> Refinement {
+        let inv = match InverseCdf::new(self.c, candidate.clone()) {
+            Ok(inv) => inv,
+            Err(e) => {
+                return Refinement::Reject {
+                    reason: e.to_string(),
+                }
+            }
+        };
+        let (min_derivative, at, failing) = check_monotone(&inv, self.checks);
+        if failing.is_empty() {
+            return Refinement::Accept;
+        }
+        if round >= self.max_rounds {
+            let reason = format!(
+                "not monotone: derivative {min_derivative:.3e} at {at:?} after {round} rounds"
+            );
+            if let Ok(mut refused) = self.refused.lock() {
+                *refused = Some((min_derivative, at, round));
+            }
+            return Refinement::Reject { reason };
+        }
+        let (n_p, n_q) = candidate.split();
+        Refinement::AddRows(self.rows_at(&failing, candidate.basis(), n_p, n_q))
+    }
+}
+
 /// An accepted split of one budget.
 struct Found {
     n_p: usize,
     n_q: usize,
     function: RationalFunction,
     min_q_ratio: f64,
+    /// Rounds of rows the refinement added to it.
+    refine_rounds: usize,
 }
 
 /// The smallest budget at or above `start` that the library's probing
 /// search ([`Search::Probe`]: doubling, then bisection, five splits per
-/// budget) finds feasible, with its accepted split of smallest condition
-/// number; `None` when no budget up to `max` is. The budgets probed are
-/// appended to `tried`.
+/// budget) finds feasible and monotone, with its accepted split of smallest
+/// condition number; `None` when no budget up to `max` is. The budgets
+/// probed are appended to `tried`.
 fn search_budget(
-    a: &Assembled,
+    data: &IntervalData,
+    refiner: &MonotoneRefiner,
     engine: &FitSettings,
     start: usize,
     max: usize,
     tried: &mut Vec<usize>,
 ) -> Result<Option<Found>, CdfError> {
     let start = start.max(2);
-    if start > max.min(a.data.len()) {
+    if start > max.min(data.len()) {
         return Ok(None);
     }
     // This crate widens its own intervals (in CDF space), not the engine.
@@ -317,9 +405,9 @@ fn search_budget(
         .with_coeff_range(start, max)?
         .with_search(Search::Probe)
         .with_widening(2.0, 0)?;
-    let result = Fitter::new(&a.data)
+    let result = Fitter::new(data)
         .settings(settings)
-        .constraints(&a.monotone)
+        .constraints(refiner)
         .fit();
     let splits = match &result {
         Ok(r) => r.splits.as_slice(),
@@ -334,6 +422,11 @@ fn search_budget(
             n_p: r.n_p,
             n_q: r.n_q,
             min_q_ratio: r.verification.min_q_ratio,
+            refine_rounds: r
+                .splits
+                .iter()
+                .find(|s| s.accepted && (s.n_p, s.n_q) == (r.n_p, r.n_q))
+                .map_or(0, |s| s.refine_rounds),
             function: r.function,
         })),
         Err(FitError::NoFeasibleFit { .. }) => Ok(None),
@@ -360,64 +453,63 @@ fn fit_component(
         Component::Phi => 1,
     }];
     let checks = check_points(table, c, s);
+    let natural = sample_points(table, c, s);
     let mut delta = s.cdf_tolerance;
     let mut tried = Vec::new();
-    let mut last_failure = None;
-    'widen: for widening in 0..=s.widenings {
+    let mut refused = None;
+    for widening in 0..=s.widenings {
         if widening > 0 {
+            // Wider intervals give the solver room.
             delta = (2.0 * delta).min(0.49);
         }
-        let mut natural = sample_points(table, c, s);
-        let mut zero_weight = Vec::new();
-        let mut budget = 2;
-        for round in 0..=s.refinement_rounds {
-            let a = assemble(table, c, &natural, &zero_weight, delta, s.min_half_width)?;
-            let Some(found) = search_budget(&a, &engine, budget, max_coeffs, &mut tried)? else {
-                continue 'widen;
-            };
-            budget = found.n_p + found.n_q;
-            let inv = InverseCdf::new(c, found.function.clone())?;
-            let (min_derivative, at, failing) = check_monotone(&inv, &checks);
-            if failing.is_empty() {
-                let report = component_report(
-                    c,
-                    &inv,
-                    &a,
-                    &found,
-                    delta,
-                    min_derivative,
-                    checks.len() / c.dim(),
-                    round,
-                    tried,
-                    start,
-                );
-                return Ok((inv, report));
-            }
-            if round == s.refinement_rounds {
-                // Still not monotone: wider intervals give the solver room.
-                last_failure = Some(CdfError::NotMonotone {
-                    function: c.name(),
-                    min_derivative,
-                    at,
-                    rounds: round,
-                });
-                continue 'widen;
-            }
-            for x in failing.chunks(c.dim()) {
-                if c.known_part(x).weight == 0.0 {
-                    zero_weight.extend_from_slice(x);
-                } else {
-                    natural.extend_from_slice(x);
-                }
-            }
+        let a = assemble(table, c, &natural, delta, s.min_half_width)?;
+        let refiner = MonotoneRefiner {
+            table,
+            c,
+            delta,
+            min_half: s.min_half_width,
+            at_samples: &a.monotone,
+            checks: &checks,
+            max_rounds: s.refinement_rounds,
+            refused: Mutex::new(None),
+        };
+        let found = search_budget(&a.data, &refiner, &engine, 2, max_coeffs, &mut tried)?;
+        if let Some(r) = refiner.refused.into_inner().ok().flatten() {
+            refused = Some(r);
         }
+        let Some(found) = found else {
+            continue;
+        };
+        let inv = InverseCdf::new(c, found.function.clone())?;
+        let (min_derivative, _, failing) = check_monotone(&inv, &checks);
+        debug_assert!(failing.is_empty(), "the refinement accepted it");
+        let report = component_report(
+            c,
+            &inv,
+            &a,
+            &found,
+            delta,
+            min_derivative,
+            checks.len() / c.dim(),
+            tried,
+            start,
+        );
+        return Ok((inv, report));
     }
-    Err(last_failure.unwrap_or(CdfError::Infeasible {
-        function: c.name(),
-        max_coeffs,
-        cdf_tolerance: delta,
-        doublings: s.widenings,
-    }))
+    Err(match refused {
+        Some((min_derivative, at, rounds)) => CdfError::NotMonotone {
+            function: c.name(),
+            min_derivative,
+            at,
+            rounds,
+        },
+        None => CdfError::Infeasible {
+            function: c.name(),
+            max_coeffs,
+            cdf_tolerance: delta,
+            doublings: s.widenings,
+        },
+    })
 }
 
 /// Smallest derivative on the grid, where, and the failing points (at most
@@ -425,12 +517,11 @@ fn fit_component(
 /// positive (a pole between samples).
 fn check_monotone(inv: &InverseCdf, grid: &[f64]) -> (f64, Vec<f64>, Vec<f64>) {
     let d = inv.component.dim();
-    let mut derivs: Vec<(f64, usize)> = grid
+    let derivs: Vec<(f64, usize)> = grid
         .par_chunks(d)
         .enumerate()
         .map(|(i, x)| {
-            let (_, q) = inv.rational.eval_parts(&inv.component.fit_coordinates(x));
-            let dr = inv.eval_with_derivative(x).1;
+            let (dr, q) = inv.derivative_and_denominator(x);
             (
                 if q > 0.0 && dr.is_finite() {
                     dr
@@ -441,11 +532,17 @@ fn check_monotone(inv: &InverseCdf, grid: &[f64]) -> (f64, Vec<f64>, Vec<f64>) {
             )
         })
         .collect();
-    derivs.sort_by(|a, b| a.0.total_cmp(&b.0));
-    let (min, at) = derivs[0];
-    let failing = derivs
+    // The smallest (first in grid order among equals), then only the
+    // negative ones sorted: most candidates have few or none.
+    let (min, at) = derivs
         .iter()
-        .take_while(|(v, _)| *v < 0.0)
+        .copied()
+        .reduce(|a, b| if b.0.total_cmp(&a.0).is_lt() { b } else { a })
+        .unwrap_or((f64::INFINITY, 0));
+    let mut negative: Vec<(f64, usize)> = derivs.into_iter().filter(|(v, _)| *v < 0.0).collect();
+    negative.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let failing = negative
+        .iter()
         .take(1024)
         .flat_map(|&(_, i)| grid[i * d..(i + 1) * d].iter().copied())
         .collect();
@@ -461,7 +558,6 @@ fn component_report(
     delta: f64,
     min_derivative: f64,
     check_points: usize,
-    rounds: usize,
     budgets_tried: Vec<usize>,
     start: Instant,
 ) -> ComponentReport {
@@ -482,7 +578,7 @@ fn component_report(
         mean_error_rad: errors.iter().sum::<f64>() / errors.len() as f64,
         min_derivative,
         check_points,
-        refinement_rounds: rounds,
+        refinement_rounds: fit.refine_rounds,
         budgets_tried,
         min_q_ratio: fit.min_q_ratio,
         seconds: start.elapsed().as_secs_f64(),
@@ -535,5 +631,69 @@ mod tests {
             table_differs |= (own.2 - own_swapped.2).abs() > 1e-3;
         }
         assert!(table_differs, "the test material should not be reciprocal");
+    }
+
+    /// The refinement's verdicts: a non-monotone candidate gets rows of
+    /// its split's length (or is refused once the rounds are spent, which
+    /// is recorded for the error), a fitted monotone one is accepted.
+    #[test]
+    fn non_monotone_candidates_get_rows_then_a_refusal() {
+        let settings = TableSettings::default()
+            .with_views(6)
+            .unwrap()
+            .with_cells(30, 24)
+            .unwrap();
+        let table = CdfTable::new(&Skewed, settings).unwrap();
+        let s = CdfFitSettings::default();
+        let c = Component::Theta;
+        let checks = check_points(&table, c, &s);
+        let a = assemble(&table, c, &sample_points(&table, c, &s), 0.05, 1e-3).unwrap();
+        let refiner = MonotoneRefiner {
+            table: &table,
+            c,
+            delta: 0.05,
+            min_half: 1e-3,
+            at_samples: &a.monotone,
+            checks: &checks,
+            max_rounds: 2,
+            refused: Mutex::new(None),
+        };
+        // The rational part `1 - 40 mu` (graded monomials 1, theta_v, mu,
+        // ...): it falls in mu.
+        let basis = Basis::new(
+            rational_core::BasisFamily::Monomial,
+            domain(c, table.settings().max_view()).unwrap(),
+            6,
+        )
+        .unwrap();
+        let falling =
+            RationalFunction::new(basis, vec![1.0, 0.0, -40.0, 0.0, 0.0, 0.0], vec![1.0]).unwrap();
+        let Refinement::AddRows(rows) = refiner.refine(&falling, 0) else {
+            panic!("a falling map needs rows")
+        };
+        assert!(!rows.is_empty());
+        assert!(rows.iter().all(|r| r.len() == 7));
+        assert!(matches!(
+            refiner.refine(&falling, 2),
+            Refinement::Reject { .. }
+        ));
+        let refused = refiner.refused.lock().unwrap().clone().unwrap();
+        assert!(refused.0 < 0.0 && refused.2 == 2, "{refused:?}");
+        // A fit accepted by the search is monotone on the whole grid.
+        let found = search_budget(
+            &a.data,
+            &refiner,
+            &s.engine
+                .clone()
+                .with_domain(domain(c, table.settings().max_view()).unwrap()),
+            2,
+            64,
+            &mut Vec::new(),
+        )
+        .unwrap()
+        .expect("a monotone fit");
+        let inv = InverseCdf::new(c, found.function.clone()).unwrap();
+        assert!(check_monotone(&inv, &checks).2.is_empty());
+        assert_eq!(refiner.refine(&found.function, 0), Refinement::Accept);
     }
 }

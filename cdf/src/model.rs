@@ -171,6 +171,18 @@ impl InverseCdf {
         (value, k.base_d + k.weight_d * g + k.weight * dg)
     }
 
+    /// `d r / d u` and the rational part's denominator `q` at a natural
+    /// point, from one pass (the monotonicity check's figures; the
+    /// derivative is [`InverseCdf::eval_with_derivative`]'s, bit for bit).
+    pub(crate) fn derivative_and_denominator(&self, natural: &[f64]) -> (f64, f64) {
+        let c = self.component;
+        let k = c.known_part(natural);
+        let (x, n) = c.fit_coordinates_array(natural);
+        let [p, q, dp, dq] = self.rational.parts_and_partials(&x[..n], c.sampled());
+        let (g, dg) = (p / q, (dp * q - p * dq) / (q * q));
+        (k.base_d + k.weight_d * g + k.weight * dg, q)
+    }
+
     /// The `u` in `[0, 1]` with `r(.., u) = target` (the other coordinates
     /// from `natural`), by safeguarded Newton iteration; `None` when the
     /// target is outside `[r(0), r(1)]`.

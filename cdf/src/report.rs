@@ -13,9 +13,9 @@ pub struct ComponentReport {
     pub n_p: usize,
     /// Denominator coefficients.
     pub n_q: usize,
-    /// Samples fitted (after refinement).
+    /// Samples fitted.
     pub samples: usize,
-    /// Points carrying monotonicity rows.
+    /// Points carrying monotonicity rows before refinement.
     pub monotone_points: usize,
     /// Half-width of the intervals in CDF space (after any doubling).
     pub cdf_tolerance: f64,
@@ -27,7 +27,7 @@ pub struct ComponentReport {
     pub min_derivative: f64,
     /// Points of the check grid.
     pub check_points: usize,
-    /// Rounds in which failing grid points were added.
+    /// Rounds in which failing grid points were added to the accepted split.
     pub refinement_rounds: usize,
     /// Budgets probed by the search.
     pub budgets_tried: Vec<usize>,

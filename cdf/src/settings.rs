@@ -24,8 +24,8 @@ impl Default for CdfFitSettings {
     /// Intervals of +-0.05 in CDF space (at least +-1e-3 rad), 32 steps in
     /// `mu` per view, 16 in `tau` on 16 rows of `theta_l` at every other
     /// view, at most 64 (theta) and 120 (phi) coefficients, 4 doublings of
-    /// the tolerance, 4 refinement rounds, a check grid 4x denser than the
-    /// data.
+    /// the tolerance, 8 refinement rounds per split, a check grid 6x
+    /// denser than the data.
     fn default() -> Self {
         Self {
             cdf_tolerance: 0.05,
@@ -36,8 +36,8 @@ impl Default for CdfFitSettings {
             phi_view_stride: 2,
             max_coeffs: [64, 120],
             widenings: 4,
-            refinement_rounds: 4,
-            check_density: 4,
+            refinement_rounds: 8,
+            check_density: 6,
             engine: FitSettings::default(),
         }
     }
@@ -121,8 +121,9 @@ impl CdfFitSettings {
         self
     }
 
-    /// Rounds of added monotonicity constraints, and how much denser than
-    /// the data the check grid is per coordinate.
+    /// Rounds of added monotonicity constraints per split (then the split
+    /// is refused), and how much denser than the data the check grid is per
+    /// coordinate.
     ///
     /// # Errors
     /// A density below 4 (the check must be denser than the data).

@@ -81,18 +81,19 @@ fn assert_model_properties(cdf: &RationalCdf) {
             }
         }
     }
-    // Monotone on grids as dense as the fit's check grid (4x the data) but
-    // offset from it, so these points were never constrained.
+    // Monotone on grids as dense as the fit's check grid (6x the data: 8
+    // views, 16 steps in mu, 10 rows and 10 steps in tau) but offset from
+    // it, so these points were never constrained.
     let mut min_theta = f64::INFINITY;
-    for tv in offset_grid(32, 0.0, max_view) {
-        for mu in offset_grid(64, 0.0, 1.0) {
+    for tv in offset_grid(48, 0.0, max_view) {
+        for mu in offset_grid(96, 0.0, 1.0) {
             min_theta = min_theta.min(cdf.theta.eval_with_derivative(&[tv, mu]).1);
         }
     }
     let mut min_phi = f64::INFINITY;
-    for tv in offset_grid(32, 0.0, max_view) {
-        for tl in offset_grid(40, 0.0, FRAC_PI_2) {
-            for tau in offset_grid(40, 0.0, 1.0) {
+    for tv in offset_grid(48, 0.0, max_view) {
+        for tl in offset_grid(60, 0.0, FRAC_PI_2) {
+            for tau in offset_grid(60, 0.0, 1.0) {
                 min_phi = min_phi.min(cdf.phi.eval_with_derivative(&[tv, tl, tau]).1);
             }
         }

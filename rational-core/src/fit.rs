@@ -3,7 +3,7 @@
 use crate::poles::{bernstein_margin, bernstein_rows, grid_check, grid_size};
 use crate::problem::{
     build_problem_in, condition_number, DesignMatrix, ExtraConstraints, NoExtraConstraints,
-    SharedDesign,
+    Refinement, SharedDesign,
 };
 use crate::report::{FitReport, PoleReport, SplitSummary};
 use crate::verify::{error_figures, verify, Verification};
@@ -322,17 +322,16 @@ impl<'a> Prepared<'a> {
                 );
                 break (None, Some(ver));
             }
-            match self.check_poles(&f, &ver, data, (n_p, n_q), summary.pole_rounds, &mut poles) {
-                PoleVerdict::Accept => {}
-                PoleVerdict::Reject(note) => {
-                    summary.note = note;
-                    break (None, Some(ver));
-                }
-                PoleVerdict::SolveAgain(more) => {
-                    summary.pole_rounds += 1;
+            match self.refine(&f, &ver, data, &mut summary, &mut poles) {
+                Refinement::AddRows(more) => {
                     rows.extend(more);
                     continue;
                 }
+                Refinement::Reject { reason } => {
+                    summary.note = reason;
+                    break (None, Some(ver));
+                }
+                _ => {}
             }
             summary.accepted = true;
             if want_condition {
@@ -433,6 +432,33 @@ impl<'a> Prepared<'a> {
         })
     }
 
+    /// The refinement of a verified candidate: the pole check first, then
+    /// the caller's [`ExtraConstraints::refine`]; each accepts, refuses or
+    /// adds rows for another solve of the split (counted in `summary`).
+    fn refine(
+        &self,
+        f: &RationalFunction,
+        ver: &Verification,
+        data: &IntervalData,
+        summary: &mut SplitSummary,
+        poles: &mut PoleReport,
+    ) -> Refinement {
+        let split = (summary.n_p, summary.n_q);
+        match self.check_poles(f, ver, data, split, summary.pole_rounds, poles) {
+            Refinement::Accept => {}
+            Refinement::AddRows(more) => {
+                summary.pole_rounds += 1;
+                return Refinement::AddRows(more);
+            }
+            other => return other,
+        }
+        let refinement = self.extra.refine(f, summary.refine_rounds);
+        if matches!(refinement, Refinement::AddRows(_)) {
+            summary.refine_rounds += 1;
+        }
+        refinement
+    }
+
     /// The settings' pole control on a verified candidate: accept it,
     /// reject it, or solve again with rows `q > 0` at the grid points where
     /// `q <= 0` (after `rounds` such rounds).
@@ -444,16 +470,18 @@ impl<'a> Prepared<'a> {
         (n_p, n_q): (usize, usize),
         rounds: usize,
         poles: &mut PoleReport,
-    ) -> PoleVerdict {
+    ) -> Refinement {
         match self.settings.pole_control {
-            PoleControl::None => PoleVerdict::Accept,
+            PoleControl::None => Refinement::Accept,
             PoleControl::Bernstein { elevation } => {
                 let m = bernstein_margin(f.basis(), f.denominator(), elevation);
                 poles.certified = Some(m > 0.0);
                 if m > 0.0 {
-                    PoleVerdict::Accept
+                    Refinement::Accept
                 } else {
-                    PoleVerdict::Reject("Bernstein certificate failed".into())
+                    Refinement::Reject {
+                        reason: "Bernstein certificate failed".into(),
+                    }
                 }
             }
             PoleControl::DenseGrid { points_per_dim } => {
@@ -462,13 +490,15 @@ impl<'a> Prepared<'a> {
                 // min_q / min_q_ratio is the largest q at the samples.
                 poles.grid_min_q = Some(min / ver.min_q.max(f64::MIN_POSITIVE) * ver.min_q_ratio);
                 if bad.is_empty() {
-                    return PoleVerdict::Accept;
+                    return Refinement::Accept;
                 }
                 if rounds >= MAX_POLE_ROUNDS {
-                    return PoleVerdict::Reject(format!(
-                        "q <= 0 at {} grid points after {MAX_POLE_ROUNDS} rounds",
-                        bad.len()
-                    ));
+                    return Refinement::Reject {
+                        reason: format!(
+                            "q <= 0 at {} grid points after {MAX_POLE_ROUNDS} rounds",
+                            bad.len()
+                        ),
+                    };
                 }
                 let mut phi = vec![0.0; f.basis().len()];
                 let rows = bad
@@ -480,18 +510,10 @@ impl<'a> Prepared<'a> {
                         r
                     })
                     .collect();
-                PoleVerdict::SolveAgain(rows)
+                Refinement::AddRows(rows)
             }
         }
     }
-}
-
-/// What the pole check makes of a verified candidate.
-enum PoleVerdict {
-    Accept,
-    Reject(String),
-    /// Rows `q > 0` at points where `q <= 0`, for another round.
-    SolveAgain(Vec<Vec<f64>>),
 }
 
 fn check_sizes(data: &IntervalData, settings: &FitSettings) -> Result<usize, FitError> {

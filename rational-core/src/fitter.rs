@@ -55,7 +55,9 @@ impl<'a> Fitter<'a> {
     }
 
     /// Linear rows added to every split's program (monotonicity of an
-    /// inverse CDF, positivity on a grid...).
+    /// inverse CDF, positivity on a grid...), and their check of each
+    /// verified candidate ([`ExtraConstraints::refine`]: accept, refuse, or
+    /// rows for another solve of the split).
     pub fn constraints(mut self, extra: &'a dyn ExtraConstraints) -> Self {
         self.extra = extra;
         self

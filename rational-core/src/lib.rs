@@ -13,7 +13,10 @@
 //! ([`Basis`]), interval data ([`IntervalData`]), [`RationalFunction`], one
 //! way to fit ([`Fitter`]: the sweep over coefficient budgets, a single
 //! split, or the program a split solves; [`fit`] is its shorthand), pole
-//! control ([`PoleControl`]) and verification.
+//! control ([`PoleControl`]), caller-supplied rows and refinement
+//! ([`ExtraConstraints`]: a check of each verified candidate that accepts
+//! it, refuses it or adds rows for another solve, as the pole check does)
+//! and verification.
 //!
 //! ```
 //! use rational_core::{fit, FitSettings, IntervalData};
@@ -56,7 +59,8 @@ pub use fit::{fit, SplitFit};
 pub use fitter::Fitter;
 pub use poles::PoleControl;
 pub use problem::{
-    blocked_triangular_factor, condition_number, ExtraConstraints, NoExtraConstraints, SharedDesign,
+    blocked_triangular_factor, condition_number, ExtraConstraints, NoExtraConstraints, Refinement,
+    SharedDesign,
 };
 pub use qp_backends::{Backend, SolveOptions, Status};
 pub use rational::RationalFunction;

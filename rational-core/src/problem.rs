@@ -1,7 +1,7 @@
 //! The paper's P(n_p, n_q): two linear inequalities per sample, each row
 //! divided by its Euclidean norm, `G c >= 1`.
 
-use crate::{Basis, FitError, IntervalData};
+use crate::{Basis, FitError, IntervalData, RationalFunction};
 use faer::{Mat, MatRef};
 use qp_backends::LdpProblem;
 use rayon::prelude::*;
@@ -103,10 +103,40 @@ impl SharedDesign {
 
 /// Linear constraints on the coefficient vector `c = (a, b)` that callers add
 /// to P(n_p, n_q), each read as `row . c > 0` (with the same normalised
-/// margin as the data rows). The `cdf` crate adds monotonicity this way.
+/// margin as the data rows), and the refinement of a verified candidate.
+/// The `cdf` crate keeps inverse CDFs monotone this way: rows at the
+/// samples up front, then rows where a dense check finds the derivative
+/// negative.
 pub trait ExtraConstraints: Sync {
     /// Rows of length `n_p + n_q` for this split.
     fn rows(&self, basis: &Basis, n_p: usize, n_q: usize) -> Vec<Vec<f64>>;
+
+    /// Called on each candidate of P(n_p, n_q) (its split is
+    /// `candidate.split()`) that passed verification and the pole check,
+    /// with the rounds of rows this hook already
+    /// added to the split: accept it, refuse it, or return rows (in the
+    /// candidate's coefficients, as [`ExtraConstraints::rows`]) to add
+    /// before solving the split again. The pole control's dense grid works
+    /// the same way. The default accepts.
+    fn refine(&self, _candidate: &RationalFunction, _round: usize) -> Refinement {
+        Refinement::Accept
+    }
+}
+
+/// What a refinement check makes of a verified candidate.
+#[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
+pub enum Refinement {
+    /// The candidate stands.
+    Accept,
+    /// The split is refused, for this reason (the split's note).
+    Reject {
+        /// Why, for the report.
+        reason: String,
+    },
+    /// Solve the split again with these rows added (each of length
+    /// `n_p + n_q`, read as [`ExtraConstraints::rows`] are).
+    AddRows(Vec<Vec<f64>>),
 }
 
 /// No extra constraints.

@@ -131,10 +131,16 @@ impl RationalFunction {
     /// `r(x)` and `d r / d x_k` in one pass over the basis, without the
     /// other partial derivatives (what an inverse CDF's Jacobian needs).
     pub fn value_and_partial(&self, x: &[f64], k: usize) -> (f64, f64) {
-        let [p, q, dp, dq] =
-            self.basis
-                .combine_with_partial(x, k, &self.numerator, &self.denominator);
+        let [p, q, dp, dq] = self.parts_and_partials(x, k);
         (p / q, (dp * q - p * dq) / (q * q))
+    }
+
+    /// `[p, q, dp/dx_k, dq/dx_k]` at `x` from one pass over the basis (as
+    /// [`RationalFunction::value_and_partial`], which divides them): for
+    /// callers that also need the sign of `q`.
+    pub fn parts_and_partials(&self, x: &[f64], k: usize) -> [f64; 4] {
+        self.basis
+            .combine_with_partial(x, k, &self.numerator, &self.denominator)
     }
 
     /// `r(x)` and its gradient from one evaluation of the basis.

@@ -30,6 +30,9 @@ pub struct SplitSummary {
     pub iterations: usize,
     /// Dense-grid re-solves.
     pub pole_rounds: usize,
+    /// Re-solves with rows from [`crate::ExtraConstraints::refine`].
+    #[serde(default)]
+    pub refine_rounds: usize,
 }
 
 impl SplitSummary {
@@ -46,6 +49,7 @@ impl SplitSummary {
             seconds: 0.0,
             iterations: 0,
             pole_rounds: 0,
+            refine_rounds: 0,
         }
     }
 }
