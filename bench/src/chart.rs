@@ -238,6 +238,8 @@ impl Figure {
             .configure_mesh()
             .x_desc(self.x_label.as_str())
             .y_desc(self.y_label.as_str())
+            .x_labels(5)
+            .y_labels(8)
             .x_label_formatter(&decade_label)
             .y_label_formatter(&decade_label)
             .label_style((FAMILY, 11))
