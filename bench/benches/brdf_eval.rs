@@ -148,8 +148,7 @@ fn main() -> Result<()> {
         panels: vec![panel],
         columns: 1,
     };
-    ratfit_bench::output::write(out.join("brdf_eval.svg"), figure.svg()?)?;
-    figure.png(&out.join("brdf_eval.png"))?;
+    figure.write(&out, "brdf_eval")?;
     println!(
         "fit: {} coefficients, {} bytes; max rel error per channel {:?}",
         fitted.coefficients(),

@@ -148,8 +148,7 @@ fn main() -> Result<()> {
         panels: vec![panel],
         columns: 1,
     };
-    ratfit_bench::output::write(out.join("sampling.svg"), figure.svg()?)?;
-    figure.png(&out.join("sampling.png"))?;
+    figure.write(&out, "sampling")?;
     println!(
         "{samples} samples per estimate at views {views:?} degrees; ratios are geometric means over the views of the relative variance; wrote {}/sampling.csv, sampling.svg and sampling.png",
         out.display()

@@ -177,6 +177,12 @@ impl Figure {
         write_png(path, self.size(), |root| self.draw(root))
     }
 
+    /// Writes the figure as `dir/stem.svg` and `dir/stem.png`.
+    pub fn write(&self, dir: &Path, stem: &str) -> Result<()> {
+        crate::output::write(dir.join(format!("{stem}.svg")), self.svg()?)?;
+        self.png(&dir.join(format!("{stem}.png")))
+    }
+
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<()> {
         root.fill(&WHITE).map_err(plot_error)?;
         let (header, body) = root.split_vertically(HEADER);

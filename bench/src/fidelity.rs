@@ -759,8 +759,7 @@ fn write_outputs(
         panels,
         columns: 3,
     };
-    crate::output::write(args.out.join("de_vs_bytes.svg"), figure.svg()?)?;
-    figure.png(&args.out.join("de_vs_bytes.png"))?;
+    figure.write(&args.out, "de_vs_bytes")?;
     Ok(())
 }
 

@@ -297,8 +297,7 @@ mod imp {
             ],
             columns: 2,
         };
-        crate::output::write(args.out.join("frame_time.svg"), figure.svg()?)?;
-        figure.png(&args.out.join("frame_time.png"))
+        figure.write(&args.out, "frame_time")
     }
 
     /// Runs `ratfit bench gpu`.

@@ -233,8 +233,7 @@ fn run_fit(a: FitBenchArgs) -> Result<()> {
     results::write_csv(&a.out.join("results.csv"), &rows, threads, &info.commit)?;
     let names: Vec<&str> = backends.iter().map(|b| b.name()).collect();
     let (err, time) = summary::figures(&rows, &names);
-    crate::output::write(a.out.join("error_vs_time.svg"), err.svg()?)?;
-    err.png(&a.out.join("error_vs_time.png"))?;
+    err.write(&a.out, "error_vs_time")?;
     crate::output::write(a.out.join("time_vs_samples.svg"), time.svg()?)?;
     let md = summary::summary_md(&rows, &info);
     crate::output::write(a.out.join("summary.md"), &md)?;

@@ -222,8 +222,7 @@ fn write_figure(args: &RenderBenchArgs, scene_name: &str, rows: &[Row]) -> Resul
         ],
         columns: 2,
     };
-    crate::output::write(args.out.join("error_vs_time.svg"), figure.svg()?)?;
-    figure.png(&args.out.join("error_vs_time.png"))
+    figure.write(&args.out, "error_vs_time")
 }
 
 /// `summary.md`: equal samples and equal time.

@@ -371,8 +371,7 @@ fn write_figure(args: &RglBenchArgs, rows: &[Row]) -> Result<()> {
         panels,
         columns: 2,
     };
-    crate::output::write(args.out.join("error_vs_time.svg"), figure.svg()?)?;
-    figure.png(&args.out.join("error_vs_time.png"))?;
+    figure.write(&args.out, "error_vs_time")?;
     Ok(())
 }
 
