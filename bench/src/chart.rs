@@ -32,7 +32,8 @@ const FONT: &[u8] = include_bytes!("../fonts/DejaVuSans-subset.ttf");
 /// The family name charts ask for.
 pub const FAMILY: &str = "sans-serif";
 
-/// Registers [`FONT`] with plotters (once): every chart calls this first.
+/// Registers the built-in font with plotters (once): every chart calls this
+/// first.
 pub fn register_font() {
     static REGISTERED: std::sync::Once = std::sync::Once::new();
     REGISTERED.call_once(|| {
