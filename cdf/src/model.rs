@@ -12,7 +12,7 @@
 //! commute in floating point), with fewer coefficients than a full basis.
 
 use crate::CdfError;
-use rational_core::RationalFunction;
+use rational_core::{PowerForm, RationalFunction};
 use serde::{Deserialize, Serialize};
 use std::f64::consts::{FRAC_PI_2, PI};
 
@@ -50,6 +50,7 @@ impl Component {
 
     /// [`Component::fit_coordinates`] on the stack (the per-sample path):
     /// the coordinates and how many there are.
+    #[inline]
     pub fn fit_coordinates_array(self, natural: &[f64]) -> ([f64; 3], usize) {
         match self {
             Self::Theta => ([natural[0], natural[1], 0.0], 2),
@@ -62,6 +63,7 @@ impl Component {
 
     /// Known part `(base, weight)` of `r = base + weight * rational` and
     /// their derivatives in the sampled variable.
+    #[inline]
     pub fn known_part(self, natural: &[f64]) -> KnownPart {
         match self {
             Self::Theta => {
@@ -116,6 +118,22 @@ pub struct KnownPart {
     pub weight_d: f64,
 }
 
+impl KnownPart {
+    /// `(r, d r / d u)` of `r = base + weight * p / q` from the rational
+    /// part's `[p, q, dp/du, dq/du]`; where the weight vanishes the value is
+    /// the base exactly (the boundaries), whatever the rational part is.
+    #[inline]
+    fn with_rational(self, [p, q, dp, dq]: [f64; 4]) -> (f64, f64) {
+        let (g, dg) = (p / q, (dp * q - p * dq) / (q * q));
+        let value = if self.weight == 0.0 {
+            self.base
+        } else {
+            self.base + self.weight * g
+        };
+        (value, self.base_d + self.weight_d * g + self.weight * dg)
+    }
+}
+
 /// A rational inverse CDF: the model of one [`Component`] and its fitted
 /// rational part.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -159,16 +177,31 @@ impl InverseCdf {
 
     /// `(r(x), d r / d u)` with `u` the sampled variable.
     pub fn eval_with_derivative(&self, natural: &[f64]) -> (f64, f64) {
+        self.eval_with_derivative_in(natural, None)
+    }
+
+    /// [`InverseCdf::eval_with_derivative`] with the rational part in
+    /// `power`, its [`PowerForm`] (the sampled variable is the last fit
+    /// coordinate), when given: the same values to rounding, faster.
+    #[inline]
+    pub(crate) fn eval_with_derivative_in(
+        &self,
+        natural: &[f64],
+        power: Option<&PowerForm>,
+    ) -> (f64, f64) {
         let c = self.component;
-        let k = c.known_part(natural);
+        let known = c.known_part(natural);
+        if known.weight == 0.0 && known.weight_d == 0.0 {
+            // The rational part does not enter (phi at a view along the
+            // normal, where the map is `pi tau` exactly).
+            return (known.base, known.base_d);
+        }
         let (x, n) = c.fit_coordinates_array(natural);
-        let (g, dg) = self.rational.value_and_partial(&x[..n], c.sampled());
-        let value = if k.weight == 0.0 {
-            k.base
-        } else {
-            k.base + k.weight * g
+        let parts = match power {
+            Some(power) => power.parts_and_last_partial(&x[..n]),
+            None => self.rational.parts_and_partials(&x[..n], c.sampled()),
         };
-        (value, k.base_d + k.weight_d * g + k.weight * dg)
+        known.with_rational(parts)
     }
 
     /// `d r / d u` and the rational part's denominator `q` at a natural
@@ -187,6 +220,17 @@ impl InverseCdf {
     /// from `natural`), by safeguarded Newton iteration; `None` when the
     /// target is outside `[r(0), r(1)]`.
     pub fn invert(&self, natural: &[f64], target: f64) -> Option<f64> {
+        self.invert_in(natural, target, None)
+    }
+
+    /// [`InverseCdf::invert`] evaluating the rational part in `power` when
+    /// given (see [`InverseCdf::eval_with_derivative_in`]).
+    pub(crate) fn invert_in(
+        &self,
+        natural: &[f64],
+        target: f64,
+        power: Option<&PowerForm>,
+    ) -> Option<f64> {
         let s = self.component.sampled();
         let dim = self.component.dim();
         let mut x = [0.0; 3];
@@ -199,7 +243,7 @@ impl InverseCdf {
         let mut u = target / self.component.range();
         for _ in 0..100 {
             x[s] = u;
-            let (r, d) = self.eval_with_derivative(&x[..dim]);
+            let (r, d) = self.eval_with_derivative_in(&x[..dim], power);
             let f = r - target;
             if f.abs() <= 4.0 * f64::EPSILON * self.component.range() {
                 return Some(u);
@@ -288,10 +332,24 @@ impl RationalCdf {
     /// is the inverse of the density (per steradian, on the half range of
     /// `phi`) of the directions this map produces.
     pub fn map(&self, theta_v: f64, mu: f64, tau: f64) -> (f64, f64, f64) {
+        self.map_in(theta_v, mu, tau, [None, None])
+    }
+
+    /// [`RationalCdf::map`] with the rational parts of theta and phi in
+    /// their power forms where given.
+    pub(crate) fn map_in(
+        &self,
+        theta_v: f64,
+        mu: f64,
+        tau: f64,
+        power: [Option<&PowerForm>; 2],
+    ) -> (f64, f64, f64) {
         let tv = theta_v.clamp(0.0, self.max_view);
-        let (theta, dt) = self.theta.eval_with_derivative(&[tv, mu]);
+        let (theta, dt) = self.theta.eval_with_derivative_in(&[tv, mu], power[0]);
         let theta = theta.clamp(0.0, FRAC_PI_2);
-        let (phi, dp) = self.phi.eval_with_derivative(&[tv, theta, tau]);
+        let (phi, dp) = self
+            .phi
+            .eval_with_derivative_in(&[tv, theta, tau], power[1]);
         (theta, phi.clamp(0.0, PI), dt * dp * theta.sin())
     }
 

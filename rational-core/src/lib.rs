@@ -43,6 +43,7 @@ mod error;
 mod fit;
 mod fitter;
 pub mod poles;
+mod power;
 mod problem;
 mod rational;
 mod report;
@@ -58,6 +59,7 @@ pub use error::FitError;
 pub use fit::{fit, SplitFit};
 pub use fitter::Fitter;
 pub use poles::PoleControl;
+pub use power::PowerForm;
 pub use problem::{
     blocked_triangular_factor, condition_number, ExtraConstraints, NoExtraConstraints, Refinement,
     SharedDesign,
