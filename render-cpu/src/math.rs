@@ -77,11 +77,14 @@ impl Frame {
     }
 }
 
-/// A small, fast generator (PCG-XSH-RR 32, `rand_pcg::Pcg32`) seeded per
-/// pixel, so a render is the same whatever the thread schedule.
+/// The workspace's one seeded generator (SplitMix64, `rand_xoshiro`'s),
+/// seeded per pixel from a hash of the seed and the pixel, so a render is
+/// the same whatever the thread schedule. Every seed lies on SplitMix64's
+/// one cycle of 2^64; hashed seeds put two pixels' streams a random 64-bit
+/// distance apart, so they do not overlap within any render.
 #[derive(Debug, Clone)]
 pub struct Rng {
-    pcg: rand_pcg::Pcg32,
+    generator: rand_xoshiro::SplitMix64,
     lattice: Option<Lattice>,
 }
 
@@ -190,15 +193,15 @@ fn mix(z: u64) -> u64 {
 impl Rng {
     /// The stream of `(seed, index)`, for example a pixel.
     pub fn new(seed: u64, index: u64) -> Self {
-        let mut r = Self {
-            pcg: rand_pcg::Pcg32::from_state(
-                mix(seed ^ mix(index)),
-                mix(index.wrapping_add(seed.rotate_left(32))),
-            ),
+        Self {
+            generator: rand_core::SeedableRng::seed_from_u64(Self::state(seed, index)),
             lattice: None,
-        };
-        r.next_u32();
-        r
+        }
+    }
+
+    /// The generator's initial state for `(seed, index)`.
+    fn state(seed: u64, index: u64) -> u64 {
+        mix(seed ^ mix(index))
     }
 
     /// The stream of `(seed, index)` whose pairs come from scrambled
@@ -207,7 +210,8 @@ impl Rng {
     pub fn lattice(seed: u64, index: u64, count: usize) -> Self {
         let mut r = Self::new(seed, index);
         r.lattice = Some(Lattice {
-            key: mix(r.pcg.state() ^ ((r.pcg.stream() << 1) | 1)),
+            // A key apart from the stream's state: `mix` of a different word.
+            key: mix(Self::state(seed, index) ^ mix(index.wrapping_add(seed.rotate_left(32)))),
             count: u32::try_from(count.max(1)).unwrap_or(u32::MAX),
             sample: 0,
             dimension: 0,
@@ -225,16 +229,14 @@ impl Rng {
         }
     }
 
-    /// The next 32 random bits.
-    pub fn next_u32(&mut self) -> u32 {
-        rand_core::Rng::next_u32(&mut self.pcg)
+    /// The next 64 random bits.
+    pub fn next_u64(&mut self) -> u64 {
+        rand_core::Rng::next_u64(&mut self.generator)
     }
 
     /// Uniform in `[0, 1)` with 53 random bits.
     pub fn uniform(&mut self) -> f64 {
-        let hi = u64::from(self.next_u32()) << 21;
-        let lo = u64::from(self.next_u32()) >> 11;
-        (hi | lo) as f64 * (1.0 / (1u64 << 53) as f64)
+        unit(self.next_u64())
     }
 
     /// Two uniform numbers: independent, or the current sample's point of
@@ -278,30 +280,26 @@ mod tests {
         let mean = (0..n).map(|_| a.uniform()).sum::<f64>() / n as f64;
         assert!((mean - 0.5).abs() < 5.0 * (1.0 / 12.0f64 / n as f64).sqrt());
         let mut a = Rng::new(7, 0);
-        assert!((0..8).any(|_| a.next_u32() != b.next_u32()));
+        assert!((0..8).any(|_| a.next_u64() != b.next_u64()));
         let (x, y) = (Rng::new(3, 9).uniform(), Rng::new(3, 9).uniform());
         assert!(x.to_bits() == y.to_bits(), "same stream, same numbers");
     }
 
     #[test]
-    fn the_generator_is_pcg_xsh_rr_with_the_seeded_state_and_increment() {
-        // PCG-XSH-RR 64/32 (O'Neill 2014), written out: renders depend on
-        // the exact sequence of each pixel's stream.
+    fn the_generator_is_splitmix64_from_the_hashed_state() {
+        // SplitMix64 (Steele, Lea and Flood 2014), written out: renders
+        // depend on the exact sequence of each pixel's stream.
         for (seed, index) in [(7u64, 0u64), (3, 9), (2012, 123_456), (u64::MAX, 1)] {
             let mut state = mix(seed ^ mix(index));
-            let inc = (mix(index.wrapping_add(seed.rotate_left(32))) << 1) | 1;
             let mut reference = || {
-                let old = state;
-                state = old
-                    .wrapping_mul(6_364_136_223_846_793_005)
-                    .wrapping_add(inc);
-                let xorshifted = (((old >> 18) ^ old) >> 27) as u32;
-                xorshifted.rotate_right((old >> 59) as u32)
+                state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
+                let z = (state ^ (state >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+                let z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+                z ^ (z >> 31)
             };
-            reference();
             let mut rng = Rng::new(seed, index);
             for _ in 0..64 {
-                assert_eq!(rng.next_u32(), reference());
+                assert_eq!(rng.next_u64(), reference());
             }
         }
         // The SplitMix64 finaliser of the reference paper's first output.
