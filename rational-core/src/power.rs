@@ -23,6 +23,10 @@ const MAX_DIMS: usize = 4;
 /// Largest exponent of a leading coordinate plus one (the powers are kept
 /// in fixed arrays on the stack).
 const MAX_LEADING_POWERS: usize = 16;
+/// Largest exponent of the last coordinate (its power coefficients take
+/// `(degree + 1)^2` values; a Chebyshev expansion of this degree already
+/// amplifies rounding by up to 10^11, far beyond what is accepted).
+const MAX_LAST_DEGREE: usize = 31;
 /// Most monomials the expansion may hold (the tensor of exponents).
 const MAX_MONOMIALS: usize = 1 << 16;
 /// Most distinct products of leading powers (kept on the stack per call).
@@ -86,9 +90,10 @@ impl PowerForm {
     pub const MAX_AMPLIFICATION: f64 = 1.0e6;
 
     /// The power form of `f`, or `None` when it has more than four
-    /// coordinates, a leading exponent above 15, more than 65,536 monomials
-    /// or 128 products of leading powers, or an expansion that amplifies
-    /// rounding beyond [`PowerForm::MAX_AMPLIFICATION`].
+    /// coordinates, an exponent above 15 in a leading coordinate or above
+    /// 31 in the last, more than 65,536 monomials or 128 products of leading
+    /// powers, or an expansion that amplifies rounding beyond
+    /// [`PowerForm::MAX_AMPLIFICATION`].
     pub fn new(f: &RationalFunction) -> Option<Self> {
         let basis = f.basis();
         let dim = basis.dim();
@@ -98,7 +103,9 @@ impl PowerForm {
         let (np, nq) = f.split();
         let n = np.max(nq);
         let degree: Vec<usize> = (0..dim).map(|k| basis.degree_in(k, n)).collect();
-        if degree[..dim - 1].iter().any(|&d| d >= MAX_LEADING_POWERS) {
+        if degree[..dim - 1].iter().any(|&d| d >= MAX_LEADING_POWERS)
+            || degree[dim - 1] > MAX_LAST_DEGREE
+        {
             return None;
         }
         let sizes: Vec<usize> = degree.iter().map(|d| d + 1).collect();
@@ -386,6 +393,16 @@ mod tests {
         assert!(PowerForm::new(&f).is_none());
         // Five coordinates.
         let f = function(BasisFamily::Chebyshev, 5, 6, 6);
+        assert!(PowerForm::new(&f).is_none());
+        // Degree 39 in one coordinate: refused before any table of that
+        // degree is built (a file may declare degrees in the thousands).
+        let f = function(BasisFamily::Monomial, 1, 40, 3);
+        assert!(PowerForm::new(&f).is_none());
+        let f = function(BasisFamily::Chebyshev, 1, 1000, 3);
+        assert!(PowerForm::new(&f).is_none());
+        // Degree 30 in Chebyshev form amplifies rounding beyond the limit
+        // (the sum of T_30's power coefficients is about 1.5e11).
+        let f = function(BasisFamily::Chebyshev, 1, 31, 3);
         assert!(PowerForm::new(&f).is_none());
     }
 }
