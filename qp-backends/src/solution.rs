@@ -127,7 +127,9 @@ pub struct Solution {
     pub residuals: Residuals,
     /// Iterations the backend used (active-set changes for the native solver).
     pub iterations: usize,
-    /// Rows active at the solution (native backend), for warm starts.
+    /// Rows active at the solution (native backend), for warm starts; for
+    /// an infeasible problem, the active rows and the row found
+    /// incompatible with them (rows that already prove infeasibility).
     pub active_set: Vec<usize>,
     /// Backend name.
     pub backend: &'static str,

@@ -523,3 +523,29 @@ fn interval_problems_refuse_bad_sizes_and_values() {
     )
     .is_err());
 }
+
+#[test]
+fn the_native_solver_returns_rows_that_prove_infeasibility() {
+    // The cycle of `infeasible_cycle_is_detected` among feasible rows, with
+    // a working set small enough to be generated: the rows returned must
+    // be infeasible on their own (the proof a caller can keep), and all
+    // three rows of the cycle are needed for that.
+    let mut rows = vec![vec![1.0, 0.0], vec![0.0, 1.0], vec![-1.0, -1.0]];
+    let mut h = vec![1.0, 1.0, -1.0];
+    for k in 0..600 {
+        let t = k as f64 * 0.01;
+        rows.push(vec![t.cos(), t.sin()]);
+        h.push(-10.0);
+    }
+    let p = LdpProblem::from_rows(&rows, h.clone()).unwrap();
+    let options = SolveOptions::default().with_working_set_threshold(64);
+    let s = Backend::Native.solve(&p, &options).unwrap();
+    assert_eq!(s.status, Status::Infeasible);
+    for j in 0..3 {
+        assert!(s.active_set.contains(&j), "row {j} in {:?}", s.active_set);
+    }
+    let proof: Vec<Vec<f64>> = s.active_set.iter().map(|&j| rows[j].clone()).collect();
+    let proof_h = s.active_set.iter().map(|&j| h[j]).collect();
+    let q = LdpProblem::from_rows(&proof, proof_h).unwrap();
+    assert_eq!(solve(Backend::Native, &q).status, Status::Infeasible);
+}

@@ -6,14 +6,16 @@ use crate::problem::{
     Refinement, SharedDesign,
 };
 use crate::report::{FitReport, PoleReport, SplitSummary};
-use crate::verify::{error_figures, verify, Verification};
+use crate::verify::{error_figures, verify, verify_with, Verification};
 use crate::{
     Basis, FitError, FitSettings, IntervalData, PoleControl, Progress, RationalFunction, Search,
     Selection,
 };
 use qp_backends::{CancelFlag, LdpProblem, Status};
 use rayon::prelude::*;
+use std::collections::{HashMap, HashSet, VecDeque};
 use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::Mutex;
 use std::time::Instant;
 
 /// Dense-grid rounds before a split with poles between samples is rejected.
@@ -34,14 +36,31 @@ pub struct SplitFit {
     pub verification: Option<Verification>,
     /// Pole figures of the accepted function.
     pub poles: PoleReport,
+    /// The rows added to the split's problem (extra and pole rows), to
+    /// rebuild it for its condition number.
+    added_rows: Vec<Vec<f64>>,
 }
 
 /// Every `stride`-th sample of the prepared data ([`crate::Screen`]), with
-/// its own design; the bounds are taken from each split's data.
+/// its own design, and rows of the full problem off the stride that its
+/// solves found binding; the bounds are taken from each split's data.
 struct Subsample {
     stride: usize,
     points: IntervalData,
     design: SharedDesign,
+    binding: Mutex<BindingRows>,
+}
+
+/// Data rows of the full problem, off the screen's stride, that full solves
+/// held active or proved infeasible with (the most recent
+/// [`MAX_BINDING_ROWS`]). Neighbouring splits are bound by much the same
+/// rows, so screening them too lets the subsample refuse splits that its
+/// stride alone would pass to the full problem; they are rows of the full
+/// problem, so a refusal is still a proof.
+#[derive(Default)]
+struct BindingRows {
+    rows: VecDeque<usize>,
+    held: HashSet<usize>,
 }
 
 /// What the subsample said of a split, with its active rows as rows of the
@@ -53,12 +72,74 @@ enum Screened {
     Open { iterations: usize, rows: Vec<usize> },
 }
 
+/// Binding rows kept for the screen: enough for the certificates of many
+/// neighbouring splits, few enough that the rows a screen adds (stored,
+/// `n_p + n_q` values each) stay small beside the subsample.
+const MAX_BINDING_ROWS: usize = 8192;
+
+impl BindingRows {
+    /// Keeps `rows` (rows of the full problem of `full` samples) that are
+    /// data rows off the stride, forgetting the oldest beyond the limit.
+    fn remember(&mut self, rows: &[usize], full: usize, stride: usize) {
+        for &j in rows {
+            if j >= 2 * full || (j / 2) % stride == 0 || !self.held.insert(j) {
+                continue;
+            }
+            self.rows.push_back(j);
+            if self.rows.len() > MAX_BINDING_ROWS {
+                if let Some(old) = self.rows.pop_front() {
+                    self.held.remove(&old);
+                }
+            }
+        }
+    }
+}
+
+/// The numbering of one screen problem's rows: the kept samples' two rows
+/// each, the split's added rows, then the binding rows.
+struct ScreenRows {
+    stride: usize,
+    kept: usize,
+    full: usize,
+    added: usize,
+    binding: Vec<usize>,
+    position: HashMap<usize, usize>,
+}
+
+impl ScreenRows {
+    /// The screen problem's row for row `j` of the full problem, if it has one.
+    fn to_sub(&self, j: usize) -> Option<usize> {
+        if j >= 2 * self.full {
+            return Some(2 * self.kept + j - 2 * self.full);
+        }
+        let sample = j / 2;
+        if sample % self.stride == 0 {
+            return Some(2 * (sample / self.stride) + j % 2);
+        }
+        self.position
+            .get(&j)
+            .map(|&k| 2 * self.kept + self.added + k)
+    }
+
+    /// The full problem's row for row `r` of the screen problem.
+    fn to_full(&self, r: usize) -> usize {
+        if r < 2 * self.kept {
+            2 * (r / 2 * self.stride) + r % 2
+        } else if r < 2 * self.kept + self.added {
+            2 * self.full + r - 2 * self.kept
+        } else {
+            self.binding[r - 2 * self.kept - self.added]
+        }
+    }
+}
+
 impl Subsample {
     fn of(data: &IntervalData, stride: usize) -> Result<Self, FitError> {
         Ok(Self {
             stride,
             points: Self::pick(data, stride)?,
             design: SharedDesign::new(),
+            binding: Mutex::default(),
         })
     }
 
@@ -80,26 +161,48 @@ impl Subsample {
         Self::pick(data, self.stride)
     }
 
-    /// The subsample problem's row for row `j` of the full one of `full`
-    /// samples: a data row of a kept sample, or an added row.
-    fn to_sub(&self, j: usize, full: usize) -> Option<usize> {
-        let kept = self.points.len();
-        if j >= 2 * full {
-            return Some(2 * kept + j - 2 * full);
-        }
-        let sample = j / 2;
-        (sample % self.stride == 0).then(|| 2 * (sample / self.stride) + j % 2)
+    /// Remembers binding rows of a full solve on `data`.
+    fn remember(&self, rows: &[usize], data: &IntervalData) {
+        self.binding
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .remember(rows, data.len(), self.stride);
     }
 
-    /// The full problem's row for row `r` of the subsample's.
-    fn to_full(&self, r: usize, full: usize) -> usize {
-        let kept = self.points.len();
-        if r >= 2 * kept {
-            2 * full + r - 2 * kept
-        } else {
-            2 * (r / 2 * self.stride) + r % 2
+    /// The numbering of a screen problem with `added` rows of the split,
+    /// and the binding rows it screens.
+    fn numbering(&self, full: usize, added: usize) -> ScreenRows {
+        let binding: Vec<usize> = {
+            let held = self.binding.lock().unwrap_or_else(|e| e.into_inner());
+            held.rows.iter().copied().collect()
+        };
+        let position = binding.iter().enumerate().map(|(k, &j)| (j, k)).collect();
+        ScreenRows {
+            stride: self.stride,
+            kept: self.points.len(),
+            full,
+            added,
+            binding,
+            position,
         }
     }
+}
+
+/// Data row `j` of P(n_p, n_q) on `data` as an added row (in the unscaled
+/// coefficients [`ExtraConstraints::rows`] use): `(phi_p, -lo phi_q)` for a
+/// lower bound, `(-phi_p, hi phi_q)` for an upper one.
+fn data_row(basis: &Basis, data: &IntervalData, j: usize, n_p: usize, n_q: usize) -> Vec<f64> {
+    let i = j / 2;
+    let mut phi = vec![0.0; basis.len()];
+    basis.eval_into(data.point(i), &mut phi);
+    let (sign, bound) = if j % 2 == 0 {
+        (1.0, -data.lo()[i])
+    } else {
+        (-1.0, data.hi()[i])
+    };
+    let mut row: Vec<f64> = phi[..n_p].iter().map(|v| sign * v).collect();
+    row.extend(phi[..n_q].iter().map(|v| bound * v));
+    row
 }
 
 /// Everything the splits of a sweep share.
@@ -206,6 +309,22 @@ impl<'a> Prepared<'a> {
             .expect("a fit's own design holds its points and basis"))
     }
 
+    /// [`verify`] of a candidate on the prepared points, with the basis
+    /// values read from the design matrix (the same numbers, not evaluated
+    /// again).
+    fn verify(
+        &self,
+        f: &RationalFunction,
+        data: &IntervalData,
+        rows: &[Vec<f64>],
+    ) -> Result<Verification, FitError> {
+        let (n_p, n_q) = f.split();
+        let design = self.design_of_width(n_p.max(n_q))?;
+        Ok(verify_with(f, data, rows, |i, phi| {
+            phi.copy_from_slice(&design.row(i)[..phi.len()]);
+        }))
+    }
+
     /// The rational function of a solution vector `(a, b)` (numerator
     /// rescaled from the value-scaled problem), unit-normalised.
     fn candidate(
@@ -266,6 +385,7 @@ impl<'a> Prepared<'a> {
                 function: None,
                 verification: None,
                 poles,
+                added_rows: rows,
             });
         }
         // Each exit of the loop names the outcome; the timing and the result
@@ -280,6 +400,9 @@ impl<'a> Prepared<'a> {
             let data_rows = 2 * data.len();
             active.clear();
             active.extend(sol.active_set.iter().copied().filter(|&j| j < data_rows));
+            if let Some(sub) = &self.screen {
+                sub.remember(active, data);
+            }
             if sol.status == Status::Cancelled {
                 return Err(FitError::Cancelled {
                     splits_tried: self.solved.load(Ordering::Relaxed),
@@ -314,7 +437,7 @@ impl<'a> Prepared<'a> {
             }
             warm = sol.active_set.clone();
             let f = self.candidate(&split_basis, &sol.x, n_p)?;
-            let ver = verify(&f, data, &rows);
+            let ver = self.verify(&f, data, &rows)?;
             if !ver.satisfied {
                 summary.note = format!(
                     "verification failed at {} (violation {:.2e})",
@@ -345,12 +468,44 @@ impl<'a> Prepared<'a> {
             function,
             verification,
             poles,
+            added_rows: rows,
         })
+    }
+
+    /// The condition number of every accepted split of `candidates` that
+    /// has none yet (the searches leave it to the candidates of the budget
+    /// they return: a blocked QR of all the split's rows, as costly as a
+    /// solve on large data), copied to its summary in `summaries`.
+    fn condition_numbers(
+        &self,
+        data: &IntervalData,
+        candidates: &mut [SplitFit],
+        summaries: &mut [SplitSummary],
+    ) -> Result<(), FitError> {
+        for fit in candidates.iter_mut().filter(|f| f.summary.accepted) {
+            if fit.summary.condition_number.is_some() {
+                continue;
+            }
+            let (n_p, n_q) = (fit.summary.n_p, fit.summary.n_q);
+            let problem = self.problem(data, n_p, n_q, &fit.added_rows)?;
+            let k = condition_number(&problem);
+            fit.summary.condition_number = Some(k);
+            if let Some(s) = summaries
+                .iter_mut()
+                .rev()
+                .find(|s| s.accepted && (s.n_p, s.n_q) == (n_p, n_q))
+            {
+                s.condition_number = Some(k);
+            }
+        }
+        Ok(())
     }
 
     /// Whether the subsample (when there is one) refuses the split: then
     /// `summary` says so and `active` holds the subsample's active data
-    /// rows; otherwise `warm`, when empty, becomes the subsample's rows.
+    /// rows; otherwise `warm` becomes the subsample's active rows (the
+    /// optimum of this split on fewer rows starts the full problem nearer
+    /// its own than a neighbouring split's does).
     fn refused_by_screen(
         &self,
         data: &IntervalData,
@@ -373,7 +528,7 @@ impl<'a> Prepared<'a> {
             }
             Screened::Open { iterations, rows } => {
                 summary.iterations = iterations;
-                if warm.is_empty() {
+                if !rows.is_empty() {
                     *warm = rows;
                 }
                 Ok(false)
@@ -381,9 +536,9 @@ impl<'a> Prepared<'a> {
         }
     }
 
-    /// P(n_p, n_q) on the subsample with `data`'s bounds, started from the
-    /// rows of `warm` it holds; its verdict and active rows, as rows of the
-    /// full problem.
+    /// P(n_p, n_q) on the subsample with `data`'s bounds and the binding
+    /// rows, started from the rows of `warm` it holds; its verdict and
+    /// active rows, as rows of the full problem.
     fn screen_split(
         &self,
         sub: &Subsample,
@@ -398,9 +553,17 @@ impl<'a> Prepared<'a> {
             .design
             .of_width(&self.basis, &sub.points, width)?
             .expect("a subsample's design holds its points and basis");
-        let problem = build_problem_in(&design, &sub_data, n_p, n_q, rows, self.scale)?;
-        let full = data.len();
-        let hint = warm.iter().filter_map(|&j| sub.to_sub(j, full)).collect();
+        let numbering = sub.numbering(data.len(), rows.len());
+        let split_basis = self.basis.with_len(n_p.max(n_q))?;
+        let mut added = rows.to_vec();
+        added.extend(
+            numbering
+                .binding
+                .iter()
+                .map(|&j| data_row(&split_basis, data, j, n_p, n_q)),
+        );
+        let problem = build_problem_in(&design, &sub_data, n_p, n_q, &added, self.scale)?;
+        let hint = warm.iter().filter_map(|&j| numbering.to_sub(j)).collect();
         let mut options = self.settings.solve_options.clone().with_warm_start(hint);
         if let Some(flag) = &self.settings.cancel {
             options = options.with_cancel(CancelFlag::new(flag.clone()));
@@ -409,7 +572,7 @@ impl<'a> Prepared<'a> {
         let rows = sol
             .active_set
             .iter()
-            .map(|&r| sub.to_full(r, full))
+            .map(|&r| numbering.to_full(r))
             .collect();
         Ok(match sol.status {
             Status::Cancelled => {
@@ -593,13 +756,14 @@ pub(crate) fn sweep(
     let mut current = data.clone();
     let mut summaries = Vec::new();
     for widenings in 0..=settings.max_widenings {
-        let candidates = match settings.search {
-            Search::Exhaustive => {
-                exhaustive(&prep, &current, max_n, want_condition, &mut summaries)?
-            }
-            Search::Staircase => staircase(&prep, &current, max_n, want_condition, &mut summaries)?,
-            Search::Probe => probing(&prep, &current, max_n, want_condition, &mut summaries)?,
+        let mut candidates = match settings.search {
+            Search::Exhaustive => exhaustive(&prep, &current, max_n, &mut summaries)?,
+            Search::Staircase => staircase(&prep, &current, max_n, &mut summaries)?,
+            Search::Probe => probing(&prep, &current, max_n, &mut summaries)?,
         };
+        if want_condition {
+            prep.condition_numbers(&current, &mut candidates, &mut summaries)?;
+        }
         if let Some(best) = select(candidates, settings.selection) {
             let function = best.function.expect("accepted splits carry a function");
             let errors = error_figures(&function, &current);
@@ -661,12 +825,11 @@ fn exhaustive(
     prep: &Prepared<'_>,
     data: &IntervalData,
     max_n: usize,
-    want_condition: bool,
     summaries: &mut Vec<SplitSummary>,
 ) -> Result<Vec<SplitFit>, FitError> {
     for n in prep.settings.min_coeffs..=max_n {
         let nps: Vec<usize> = (1..n).collect();
-        let fits = solve_budget(prep, data, n, &nps, want_condition, summaries)?;
+        let fits = solve_budget(prep, data, n, &nps, summaries)?;
         if fits.iter().any(|f| f.summary.accepted) {
             return Ok(fits);
         }
@@ -682,14 +845,13 @@ fn solve_budget(
     data: &IntervalData,
     n: usize,
     nps: &[usize],
-    want_condition: bool,
     summaries: &mut Vec<SplitSummary>,
 ) -> Result<Vec<SplitFit>, FitError> {
     let done = AtomicUsize::new(0);
     let fits: Vec<SplitFit> = nps
         .par_iter()
         .map(|&np| {
-            let r = prep.solve(data, np, n - np, want_condition, &mut Vec::new());
+            let r = prep.solve(data, np, n - np, false, &mut Vec::new());
             let k = done.fetch_add(1, Ordering::Relaxed) + 1;
             if let Some(cb) = &prep.settings.progress {
                 cb(Progress {
@@ -710,7 +872,6 @@ fn probe(
     prep: &Prepared<'_>,
     data: &IntervalData,
     n: usize,
-    want_condition: bool,
     summaries: &mut Vec<SplitSummary>,
 ) -> Result<Vec<SplitFit>, FitError> {
     let mut nps: Vec<usize> = crate::PROBE_FRACTIONS
@@ -718,7 +879,7 @@ fn probe(
         .map(|f| ((f * n as f64).round() as usize).clamp(1, n - 1))
         .collect();
     nps.dedup();
-    solve_budget(prep, data, n, &nps, want_condition, summaries)
+    solve_budget(prep, data, n, &nps, summaries)
 }
 
 /// [`Search::Probe`]: budgets doubling from the smallest up to `max_n`, then
@@ -729,14 +890,13 @@ fn probing(
     prep: &Prepared<'_>,
     data: &IntervalData,
     max_n: usize,
-    want_condition: bool,
     summaries: &mut Vec<SplitSummary>,
 ) -> Result<Vec<SplitFit>, FitError> {
     let accepted = |fits: &[SplitFit]| fits.iter().any(|f| f.summary.accepted);
     let mut n = prep.settings.min_coeffs;
     let mut infeasible = n - 1;
     let (mut feasible, mut found) = loop {
-        let fits = probe(prep, data, n, want_condition, summaries)?;
+        let fits = probe(prep, data, n, summaries)?;
         if accepted(&fits) {
             break (n, fits);
         }
@@ -748,7 +908,7 @@ fn probing(
     };
     while feasible - infeasible > 1 {
         let mid = infeasible + (feasible - infeasible) / 2;
-        let fits = probe(prep, data, mid, want_condition, summaries)?;
+        let fits = probe(prep, data, mid, summaries)?;
         if accepted(&fits) {
             (feasible, found) = (mid, fits);
         } else {
@@ -766,20 +926,12 @@ fn staircase(
     prep: &Prepared<'_>,
     data: &IntervalData,
     max_n: usize,
-    want_condition: bool,
     summaries: &mut Vec<SplitSummary>,
 ) -> Result<Vec<SplitFit>, FitError> {
     let mut limit = (2 * prep.settings.min_coeffs).max(8).min(max_n);
     let mut infeasible_up_to = 0;
     loop {
-        let found = staircase_within(
-            prep,
-            data,
-            limit,
-            infeasible_up_to,
-            want_condition,
-            summaries,
-        )?;
+        let found = staircase_within(prep, data, limit, infeasible_up_to, summaries)?;
         if !found.is_empty() || limit == max_n {
             return Ok(found);
         }
@@ -797,7 +949,6 @@ fn staircase_within(
     data: &IntervalData,
     limit: usize,
     infeasible_up_to: usize,
-    want_condition: bool,
     summaries: &mut Vec<SplitSummary>,
 ) -> Result<Vec<SplitFit>, FitError> {
     let settings = prep.settings;
@@ -809,7 +960,7 @@ fn staircase_within(
     // the walk moves one column or one bisection step at a time.
     let mut active = Vec::new();
     let mut solve = |np: usize, nq: usize| -> Result<SplitFit, FitError> {
-        let f = prep.solve(data, np, nq, want_condition, &mut active)?;
+        let f = prep.solve(data, np, nq, false, &mut active)?;
         summaries.push(f.summary.clone());
         if let Some(cb) = &settings.progress {
             cb(Progress {
@@ -859,4 +1010,81 @@ fn staircase_within(
         }
     }
     Ok(best)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::BasisFamily;
+
+    #[test]
+    fn screen_rows_map_to_the_full_problem_and_back() {
+        let (full, stride, added) = (100, 8, 3);
+        let data = IntervalData::new(
+            1,
+            (0..full).map(|i| i as f64).collect(),
+            vec![1.0; full],
+            vec![2.0; full],
+        )
+        .unwrap();
+        let sub = Subsample::of(&data, stride).unwrap();
+        sub.remember(&[21, 16, 33, 37, 21, 2 * full + 1], &data);
+        let rows = sub.numbering(full, added);
+        // Rows of samples on the stride (16 of sample 8, 33 of sample 16)
+        // and added rows are not kept; 21 is kept once.
+        assert_eq!(rows.binding, vec![21, 37]);
+        let screen_len = 2 * sub.points.len() + added + rows.binding.len();
+        for r in 0..screen_len {
+            let j = rows.to_full(r);
+            assert_eq!(rows.to_sub(j), Some(r), "screen row {r} (full row {j})");
+        }
+        assert_eq!(
+            rows.to_sub(2 * 13),
+            None,
+            "sample 13 is neither kept nor binding"
+        );
+    }
+
+    #[test]
+    fn binding_rows_forget_the_oldest_beyond_the_limit() {
+        let full = 10 * MAX_BINDING_ROWS;
+        let mut held = BindingRows::default();
+        let odd: Vec<usize> = (0..MAX_BINDING_ROWS + 5).map(|k| 2 * (2 * k + 1)).collect();
+        held.remember(&odd, full, 2);
+        assert_eq!(held.rows.len(), MAX_BINDING_ROWS);
+        assert_eq!(held.held.len(), MAX_BINDING_ROWS);
+        assert_eq!(held.rows.front(), Some(&odd[5]));
+        assert!(!held.held.contains(&odd[0]) && held.held.contains(&odd[5]));
+    }
+
+    #[test]
+    fn verifying_from_the_design_matches_evaluating_the_basis() {
+        let n = 400;
+        let points: Vec<f64> = (0..n)
+            .flat_map(|i| {
+                let t = i as f64 / n as f64;
+                [t, (7.0 * t).fract(), (13.0 * t).fract()]
+            })
+            .collect();
+        let value = |i: usize| 1.0 + points[3 * i] * points[3 * i + 1] + 0.5 * points[3 * i + 2];
+        let lo = (0..n).map(|i| 0.97 * value(i)).collect();
+        let hi = (0..n).map(|i| 1.03 * value(i)).collect();
+        let data = IntervalData::new(3, points.clone(), lo, hi).unwrap();
+        let basis = Basis::new(BasisFamily::Chebyshev, data.bounding_box(), 20).unwrap();
+        let design = DesignMatrix::new(&basis, &data);
+        let f = RationalFunction::new(
+            basis.with_len(10).unwrap(),
+            (0..10).map(|k| 1.0 / (1.0 + k as f64)).collect(),
+            (0..6)
+                .map(|k| if k == 0 { 1.0 } else { 0.05 / k as f64 })
+                .collect(),
+        )
+        .unwrap();
+        let extra = vec![vec![0.5; 16]];
+        let direct = verify(&f, &data, &extra);
+        let from_design = verify_with(&f, &data, &extra, |i, phi| {
+            phi.copy_from_slice(&design.row(i)[..phi.len()]);
+        });
+        assert_eq!(direct, from_design);
+    }
 }

@@ -35,6 +35,11 @@ impl DesignMatrix {
     pub fn cols(&self) -> usize {
         self.cols
     }
+
+    /// The basis values at sample `i`.
+    pub fn row(&self, i: usize) -> &[f64] {
+        &self.values[i * self.cols..(i + 1) * self.cols]
+    }
 }
 
 /// Basis values that several fits of the same points share: the channels

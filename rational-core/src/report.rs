@@ -22,7 +22,9 @@ pub struct SplitSummary {
     pub note: String,
     /// Depth of the solution (0 when none).
     pub depth: f64,
-    /// Condition number of `G` (accepted splits, condition selection only).
+    /// Condition number of `G`: under condition selection, of the accepted
+    /// splits a sweep chose among (the smallest budget's) and of every
+    /// accepted [`crate::Fitter::split`]; `None` otherwise.
     pub condition_number: Option<f64>,
     /// Wall time of this split.
     pub seconds: f64,

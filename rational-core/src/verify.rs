@@ -48,10 +48,23 @@ pub struct ErrorFigures {
 /// Checks `r` against every interval of `data` and every `extra` row
 /// (`row . (a, b) >= 0`), in f64.
 pub fn verify(r: &RationalFunction, data: &IntervalData, extra: &[Vec<f64>]) -> Verification {
+    let basis = r.basis();
+    verify_with(r, data, extra, |i, phi| basis.eval_into(data.point(i), phi))
+}
+
+/// [`verify`] with the basis values at sample `i` written by
+/// `basis_values(i, phi)` (the first `phi.len()` functions of `r`'s basis):
+/// a sweep reads them from its design matrix, which holds exactly what
+/// [`crate::Basis::eval_into`] gives, instead of evaluating them again.
+pub(crate) fn verify_with(
+    r: &RationalFunction,
+    data: &IntervalData,
+    extra: &[Vec<f64>],
+    basis_values: impl Fn(usize, &mut [f64]) + Sync,
+) -> Verification {
     let (n_p, n_q) = r.split();
     let nb = n_p.max(n_q);
     let tol = rounding_tolerance(n_p + n_q);
-    let basis = r.basis();
     #[derive(Clone, Copy)]
     struct Acc {
         ok: bool,
@@ -65,7 +78,7 @@ pub fn verify(r: &RationalFunction, data: &IntervalData, extra: &[Vec<f64>]) -> 
         .map_init(
             || vec![0.0; nb],
             |phi, i| {
-                basis.eval_into(data.point(i), phi);
+                basis_values(i, phi);
                 let (mut p, mut pa, mut q, mut qa) = (0.0, 0.0, 0.0, 0.0);
                 for k in 0..n_p {
                     p += r.numerator()[k] * phi[k];

@@ -2,7 +2,7 @@
 //! answer: the same splits are tried, refused and accepted, and the chosen
 //! function is the one the full problems alone give.
 
-use rational_core::{fit, FitReport, FitSettings, IntervalData, Screen, Search, Status};
+use rational_core::{fit, FitError, FitReport, FitSettings, IntervalData, Screen, Search, Status};
 
 mod common;
 use common::{grid_1d, grid_2d};
@@ -94,4 +94,65 @@ fn a_zero_stride_is_refused() {
             stride: 0,
         })
         .is_err());
+}
+
+/// Every split of a fit that must fail, and how many of them the subsample
+/// refused.
+fn refusals(data: &IntervalData, settings: FitSettings) -> (usize, usize) {
+    match fit(data, &settings) {
+        Err(FitError::NoFeasibleFit { splits, .. }) => {
+            assert!(splits.iter().all(|s| !s.accepted));
+            let refused = splits
+                .iter()
+                .filter(|s| s.note.contains("hence on all"))
+                .count();
+            (splits.len(), refused)
+        }
+        other => panic!("expected no feasible fit, got {other:?}"),
+    }
+}
+
+#[test]
+fn rows_found_binding_let_the_screen_refuse_what_its_stride_misses() {
+    // A smooth line with a 50% step on three samples, none of them on the
+    // stride: the subsample alone sees the line and accepts small splits,
+    // the full problem sees the step and refuses every split. Once a full
+    // solve has proved a split infeasible with the step's rows, the screen
+    // holds them too and refuses the next splits itself.
+    let n = 20_000;
+    let x: Vec<f64> = (0..n).map(|i| i as f64 / (n - 1) as f64).collect();
+    let v: Vec<f64> = (0..n)
+        .map(|i| {
+            (1.0 + x[i])
+                * if (10_001..=10_003).contains(&i) {
+                    1.5
+                } else {
+                    1.0
+                }
+        })
+        .collect();
+    let data = IntervalData::from_values_relative(1, x, v, 0.01).unwrap();
+    for search in [Search::Staircase, Search::Exhaustive] {
+        let settings = FitSettings::default()
+            .with_coeff_range(2, 16)
+            .unwrap()
+            .with_widening(2.0, 0)
+            .unwrap()
+            .with_search(search);
+        let screened = settings
+            .clone()
+            .with_screen(Screen {
+                min_samples: 1_000,
+                stride: 8,
+            })
+            .unwrap();
+        let (tried, refused) = refusals(&data, screened);
+        let (tried_plain, _) = refusals(&data, settings.with_screen(Screen::OFF).unwrap());
+        assert_eq!(tried, tried_plain, "{search:?}: the same splits");
+        eprintln!("{search:?}: {refused} of {tried} splits refused by the screen");
+        assert!(
+            refused * 2 >= tried,
+            "{search:?}: the screen refused only {refused} of {tried} splits"
+        );
+    }
 }

@@ -65,7 +65,10 @@ impl WorkingSet {
 /// How an inner solve on the working set ended.
 enum InnerEnd {
     Converged,
-    Infeasible,
+    /// Working-set row `blocking` cannot hold together with the active rows.
+    Infeasible {
+        blocking: usize,
+    },
     IterationLimit,
     Cancelled,
 }
@@ -378,7 +381,7 @@ impl DualActiveSet {
                     f64::INFINITY
                 };
                 if t1.is_infinite() && t2.is_infinite() {
-                    return InnerEnd::Infeasible;
+                    return InnerEnd::Infeasible { blocking: p };
                 }
                 if t2.is_infinite() {
                     // Dual step only: the new row is dependent on active rows.
@@ -549,7 +552,12 @@ fn solve_native(problem: &LdpProblem, options: &SolveOptions) -> Solution {
     }
     let status = loop {
         match state.solve(&ws, &mut is_active, options) {
-            InnerEnd::Infeasible => break Status::Infeasible,
+            InnerEnd::Infeasible { blocking } => {
+                // The active rows and the row that cannot be added hold the
+                // proof: rows a caller may want to keep for related problems.
+                state.active.push(blocking);
+                break Status::Infeasible;
+            }
             InnerEnd::IterationLimit => break Status::IterationLimit,
             InnerEnd::Cancelled => break Status::Cancelled,
             InnerEnd::Converged => {}
