@@ -538,16 +538,7 @@ fn solve_native(problem: &LdpProblem, options: &SolveOptions) -> Solution {
     );
     let mut is_active = Vec::new();
     if !options.warm_start.is_empty() {
-        let mut position = vec![usize::MAX; m];
-        for (k, &j) in ws.global.iter().enumerate() {
-            position[j] = k;
-        }
-        let warm: Vec<usize> = options
-            .warm_start
-            .iter()
-            .filter(|&&j| j < m && position[j] != usize::MAX)
-            .map(|&j| position[j])
-            .collect();
+        let warm = working_set_positions(&ws, &options.warm_start, m);
         state.start_from(&ws, &warm, &mut is_active);
     }
     let status = loop {
@@ -597,6 +588,19 @@ fn solve_native(problem: &LdpProblem, options: &SolveOptions) -> Solution {
         );
     }
     polished_solution(problem, options, &ws, &state, &inv_norm, tol, active_global)
+}
+
+/// The working-set positions of the rows of `rows` it holds (of a problem
+/// of `m` rows).
+fn working_set_positions(ws: &WorkingSet, rows: &[usize], m: usize) -> Vec<usize> {
+    let mut position = vec![usize::MAX; m];
+    for (k, &j) in ws.global.iter().enumerate() {
+        position[j] = k;
+    }
+    rows.iter()
+        .filter(|&&j| j < m && position[j] != usize::MAX)
+        .map(|&j| position[j])
+        .collect()
 }
 
 /// One pass over every row: the rows outside the working set that `x`
