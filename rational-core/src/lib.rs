@@ -47,6 +47,7 @@ mod power;
 mod problem;
 mod rational;
 mod report;
+mod screen;
 mod settings;
 pub mod verify;
 
