@@ -17,7 +17,7 @@
 //!   ([`numeric_csv`]), progress bars ([`progress`]), Ctrl-C and broken
 //!   pipes ([`process`]), scene overrides ([`scene_args`]) and the picture
 //!   of `ratfit plot` ([`slices`]).
-//! * For the benchmark targets `brdf_eval` and `sampling` (`cargo bench -p
+//! * For the benchmark targets `brdf_eval`, `sampling` and `full_grid` (`cargo bench -p
 //!   ratfit-bench --bench NAME -- [--quick] [--out DIR]`): their flags
 //!   ([`bench_target`]) and the log-log charts every benchmark draws
 //!   ([`chart`], by `plotters`, with one palette and a built-in font).
