@@ -3,7 +3,7 @@
 //! against render time (CSV, figure, summary).
 
 use crate::chart::{Figure, Panel};
-use crate::scene_args::OverrideArgs;
+use crate::scene_args::{parse_swap, OverrideArgs};
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use render_cpu::{compare, prepare_file, render, SamplerKind, Scene};
@@ -34,6 +34,11 @@ pub struct RenderBenchArgs {
     /// Sampler of the reference.
     #[arg(long, default_value = "tabulated")]
     reference_sampler: SamplerKind,
+    /// Objects using material A use material B in the rational sampler's
+    /// renders only (A=B; repeatable): `--rational-swap T=T_fit` times the
+    /// table with its tabulated sampler against its fit with rational ones.
+    #[arg(long = "rational-swap")]
+    rational_swaps: Vec<String>,
     #[command(flatten)]
     overrides: OverrideArgs,
 }
@@ -52,6 +57,11 @@ struct Row {
 fn prepared(args: &RenderBenchArgs, sampler: SamplerKind) -> Result<Scene> {
     let mut options = args.overrides.options()?;
     options.sampler = Some(sampler);
+    if sampler == SamplerKind::Rational {
+        for s in &args.rational_swaps {
+            options.swaps.push(parse_swap(s, "--rational-swap")?);
+        }
+    }
     let (scene, log) = prepare_file(&args.scene, &options)?;
     eprintln!("{} sampler:\n{log}", sampler.name());
     Ok(scene)
@@ -252,6 +262,15 @@ fn summary(
         "# Samplers on `{scene_name}`\n\n{} ({} sampler, {} spp, {:.1} s) is the reference; errors are RMSE of linear values and the mean CIEDE2000 over non-black pixels. Seed 1 for every compared render.\n\n## Equal samples\n\n| spp |",
         "reference.exr", args.reference_sampler.name(), args.reference_spp, reference_seconds
     );
+    if !args.rational_swaps.is_empty() {
+        md.insert_str(
+            md.find("\n\n## Equal samples").unwrap_or(md.len()),
+            &format!(
+                " The rational sampler's renders swap materials ({}): they time and measure the fits with their rational samplers against the tables with theirs.",
+                args.rational_swaps.join(", ")
+            ),
+        );
+    }
     for n in &names {
         let _ = write!(md, " {n} RMSE (s) |");
     }

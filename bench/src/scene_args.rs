@@ -47,11 +47,7 @@ impl OverrideArgs {
         let swaps = self
             .swaps
             .iter()
-            .map(|s| {
-                s.split_once('=')
-                    .map(|(a, b)| (a.to_string(), b.to_string()))
-                    .with_context(|| format!("--swap `{s}` is not A=B"))
-            })
+            .map(|s| parse_swap(s, "--swap"))
             .collect::<Result<_>>()?;
         Ok(RenderOptions {
             resolution,
@@ -64,6 +60,13 @@ impl OverrideArgs {
             no_cache: self.no_cache,
         })
     }
+}
+
+/// Parses a swap `A=B` given to `flag`.
+pub fn parse_swap(s: &str, flag: &str) -> Result<(String, String)> {
+    s.split_once('=')
+        .map(|(a, b)| (a.to_string(), b.to_string()))
+        .with_context(|| format!("{flag} `{s}` is not A=B"))
 }
 
 /// Parses WIDTHxHEIGHT.
@@ -91,5 +94,20 @@ pub fn row_bar() -> impl Fn(usize, usize) + Sync {
         if done % 8 == 0 || done == total {
             bar(done, total);
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn swaps_are_a_equals_b_and_errors_name_the_flag() {
+        assert_eq!(
+            parse_swap("table=table_fit", "--swap").unwrap(),
+            ("table".to_string(), "table_fit".to_string())
+        );
+        let e = parse_swap("table", "--rational-swap").unwrap_err();
+        assert!(e.to_string().contains("--rational-swap `table` is not A=B"));
     }
 }
