@@ -7,14 +7,19 @@ use rational_core::{fit, FitError, FitReport, FitSettings, IntervalData, Screen,
 mod common;
 use common::{grid_1d, grid_2d};
 
-fn both(name: &str, data: &IntervalData, settings: FitSettings) -> (FitReport, FitReport) {
-    let screened = settings
+/// `settings` screening every 8th sample from 1,000 samples.
+fn screening(settings: &FitSettings) -> FitSettings {
+    settings
         .clone()
         .with_screen(Screen {
             min_samples: 1_000,
             stride: 8,
         })
-        .unwrap();
+        .unwrap()
+}
+
+fn both(name: &str, data: &IntervalData, settings: FitSettings) -> (FitReport, FitReport) {
+    let screened = screening(&settings);
     let plain = settings.with_screen(Screen::OFF).unwrap();
     let a = fit(data, &screened).unwrap_or_else(|e| panic!("{name} screened: {e}"));
     let b = fit(data, &plain).unwrap_or_else(|e| panic!("{name} plain: {e}"));
@@ -139,14 +144,7 @@ fn rows_found_binding_let_the_screen_refuse_what_its_stride_misses() {
             .with_widening(2.0, 0)
             .unwrap()
             .with_search(search);
-        let screened = settings
-            .clone()
-            .with_screen(Screen {
-                min_samples: 1_000,
-                stride: 8,
-            })
-            .unwrap();
-        let (tried, refused) = refusals(&data, screened);
+        let (tried, refused) = refusals(&data, screening(&settings));
         let (tried_plain, _) = refusals(&data, settings.with_screen(Screen::OFF).unwrap());
         assert_eq!(tried, tried_plain, "{search:?}: the same splits");
         eprintln!("{search:?}: {refused} of {tried} splits refused by the screen");
