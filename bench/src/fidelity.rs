@@ -776,8 +776,10 @@ fn summary(args: &FidelityArgs, rows: &[Row], noise: &[(String, Vec<f64>)], wall
     );
     let _ = writeln!(
         md,
-        "Mean and 99th-percentile CIEDE2000 over the sphere's pixels against the table's render \
-         (lights: three directional lights; sky: sky and ground, MIS). Relative error: luminance, \
+        "Mean and 99th-percentile CIEDE2000 over the sphere's pixels (those whose centre sees \
+         the sphere, not black in both images; before 2026-12-03 the sky's figures also counted \
+         the sky and ground around it, equal in both, and were about 1.6x lower) against the \
+         table's render (lights: three directional lights; sky: sky and ground, MIS). Relative error: luminance, \
          over random direction pairs of the whole hemisphere with a table value above 1e-3 of its \
          peak, by band of the larger elevation. Peak: the largest value on a dense grid of the \
          hemisphere over the table's.\n"
