@@ -371,14 +371,16 @@ fn measure(judge: &Judge, c: Candidate) -> Result<Row> {
         note,
     };
     println!(
-        "  {:<46} {:>6} B  fit {:>7.2} s  dE lights {:>6.3} (p99 {:>6.2})  sky {:>6.3} (p99 {:>6.2})  median rel <80 {:>6.3}  peak x{:<6.2} {}",
+        "  {:<46} {:>6} B  fit {:>7.2} s  dE lights {:>6.3} (p99 {:>6.2}, silhouette {:>6.2})  sky {:>6.3} (p99 {:>6.2}, silhouette {:>6.2})  median rel <80 {:>6.3}  peak x{:<6.2} {}",
         row.representation,
         row.bytes,
         row.fit_s,
         row.render.scenes[0].mean_de,
         row.render.scenes[0].p99_de,
+        row.render.scenes[0].silhouette_mean_de,
         row.render.scenes[1].mean_de,
         row.render.scenes[1].p99_de,
+        row.render.scenes[1].silhouette_mean_de,
         row.hemisphere.median_below_80,
         row.hemisphere.peak_ratio,
         row.note
@@ -660,6 +662,8 @@ struct CsvRow {
     lights_p99_de: f64,
     sky_mean_de: f64,
     sky_p99_de: f64,
+    lights_silhouette_de: f64,
+    sky_silhouette_de: f64,
     median_rel_0_70: f64,
     p90_rel_0_70: f64,
     max_rel_0_70: f64,
@@ -687,6 +691,8 @@ impl CsvRow {
             lights_p99_de: lights.p99_de,
             sky_mean_de: sky.mean_de,
             sky_p99_de: sky.p99_de,
+            lights_silhouette_de: lights.silhouette_mean_de,
+            sky_silhouette_de: sky.silhouette_mean_de,
             median_rel_0_70: b[0].median,
             p90_rel_0_70: b[0].p90,
             max_rel_0_70: b[0].max,
@@ -779,7 +785,8 @@ fn summary(args: &FidelityArgs, rows: &[Row], noise: &[(String, Vec<f64>)], wall
         "Mean and 99th-percentile CIEDE2000 over the sphere's pixels (those whose centre sees \
          the sphere, not black in both images; before 2026-12-03 the sky's figures also counted \
          the sky and ground around it, equal in both, and were about 1.6x lower) against the \
-         table's render (lights: three directional lights; sky: sky and ground, MIS). Relative error: luminance, \
+         table's render; `*_silhouette_de` in `results.csv`: the mean over the pixels that view \
+         the sphere more than 70 degrees from its normal (lights: three directional lights; sky: sky and ground, MIS). Relative error: luminance, \
          over random direction pairs of the whole hemisphere with a table value above 1e-3 of its \
          peak, by band of the larger elevation. Peak: the largest value on a dense grid of the \
          hemisphere over the table's.\n"

@@ -277,8 +277,13 @@ fn peak_check(table: &dyn Brdf, fitted: &FittedBrdf) -> brdf::fidelity::FitPeaks
 fn describe_render(r: &render_cpu::fidelity::RenderErrors) -> String {
     format!(
         "render error against the table (mean CIEDE2000, 64 x 64; --no-render-check skips): \
-         lights {:.2} (p99 {:.1}), sky {:.2} (p99 {:.1})",
-        r.scenes[0].mean_de, r.scenes[0].p99_de, r.scenes[1].mean_de, r.scenes[1].p99_de
+         lights {:.2} (p99 {:.1}, silhouette {:.1}), sky {:.2} (p99 {:.1}, silhouette {:.1})",
+        r.scenes[0].mean_de,
+        r.scenes[0].p99_de,
+        r.scenes[0].silhouette_mean_de,
+        r.scenes[1].mean_de,
+        r.scenes[1].p99_de,
+        r.scenes[1].silhouette_mean_de
     )
 }
 

@@ -109,6 +109,10 @@ pub struct SceneError {
     pub mean_de: f64,
     /// 99th percentile of CIEDE2000 over the same pixels.
     pub p99_de: f64,
+    /// Mean CIEDE2000 over the silhouette: those of the pixels that view
+    /// the sphere more than [`SILHOUETTE_DEG`] from its normal (about 12%
+    /// of them), where a fit meets the table's least trusted values.
+    pub silhouette_mean_de: f64,
     /// Pixels of the candidate's render that are not finite (a pole of a
     /// fit, say); they count as white, far from any measured colour.
     pub non_finite_pixels: usize,
@@ -136,8 +140,8 @@ impl RenderErrors {
 /// The table's renders on both scenes, against which candidates are measured.
 pub struct Validator {
     scenes: Vec<Scene>,
-    /// Per scene, the pixels whose centre sees the sphere.
-    masks: Vec<Vec<bool>>,
+    /// Per scene, what each pixel's centre sees.
+    masks: Vec<Vec<PixelKind>>,
     references: Vec<Image>,
     /// Render error of the table against itself with another seed: the
     /// comparison's noise floor.
@@ -167,19 +171,46 @@ fn validation_scenes(settings: ValidationSettings) -> Result<Vec<Scene>, RenderE
     Ok(scenes)
 }
 
-/// The pixels of `scene` whose centre sees its first object (the sphere):
-/// both scenes render at the pixel centres.
-fn object_mask(scene: &Scene) -> Vec<bool> {
+/// View elevation (degrees from the normal) beyond which a pixel of the
+/// sphere counts as its silhouette.
+pub const SILHOUETTE_DEG: f64 = 70.0;
+
+/// What a pixel's centre sees.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum PixelKind {
+    /// Anything but the sphere: the same in every render.
+    Off,
+    /// The sphere, viewed within [`SILHOUETTE_DEG`] of its normal.
+    Interior,
+    /// The sphere, viewed further from its normal.
+    Silhouette,
+}
+
+/// What each pixel centre of `scene` sees (both scenes render at the pixel
+/// centres; the sphere is the first object).
+fn object_mask(scene: &Scene) -> Vec<PixelKind> {
     let (w, h) = (scene.camera.width(), scene.camera.height());
+    let grazing = SILHOUETTE_DEG.to_radians().cos();
     (0..w * h)
         .map(|n| {
             let ray = scene.camera.ray((n % w) as f64 + 0.5, (n / w) as f64 + 0.5);
-            matches!(scene.intersect(&ray), Some((_, 0)))
+            match scene.intersect(&ray) {
+                Some((hit, 0)) => {
+                    let n = hit.shading_normal;
+                    let cos_view = -(n[0] * ray.dir[0] + n[1] * ray.dir[1] + n[2] * ray.dir[2]);
+                    if cos_view < grazing {
+                        PixelKind::Silhouette
+                    } else {
+                        PixelKind::Interior
+                    }
+                }
+                _ => PixelKind::Off,
+            }
         })
         .collect()
 }
 
-fn scene_error(a: &Image, b: &Image, mask: &[bool]) -> Result<SceneError, RenderError> {
+fn scene_error(a: &Image, b: &Image, mask: &[PixelKind]) -> Result<SceneError, RenderError> {
     // A non-finite pixel would make every mean NaN: it is counted, and
     // compared as a bright white (as a display would clip it).
     let non_finite_pixels = b
@@ -215,15 +246,24 @@ fn scene_error(a: &Image, b: &Image, mask: &[bool]) -> Result<SceneError, Render
             format!("{} pixels for an image of {}", mask.len(), map.len()),
         ));
     }
-    let mut covered: Vec<f64> = map
+    let on_sphere: Vec<(f64, PixelKind)> = map
         .iter()
         .zip(a.pixels.iter().zip(&b.pixels))
         .zip(mask)
-        .filter(|((_, (p, q)), &on)| on && p.iter().chain(q.iter()).any(|v| *v > 0.0))
-        .map(|((d, _), _)| *d)
+        .filter(|((_, (p, q)), &kind)| {
+            kind != PixelKind::Off && p.iter().chain(q.iter()).any(|v| *v > 0.0)
+        })
+        .map(|((d, _), &kind)| (*d, kind))
         .collect();
+    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len().max(1) as f64;
+    let silhouette: Vec<f64> = on_sphere
+        .iter()
+        .filter(|(_, kind)| *kind == PixelKind::Silhouette)
+        .map(|(d, _)| *d)
+        .collect();
+    let mut covered: Vec<f64> = on_sphere.iter().map(|(d, _)| *d).collect();
     covered.sort_by(f64::total_cmp);
-    let mean_de = covered.iter().sum::<f64>() / covered.len().max(1) as f64;
+    let mean_de = mean(&covered);
     let p99 = covered
         .get(((covered.len().max(1) - 1) as f64 * 0.99).round() as usize)
         .copied()
@@ -231,6 +271,7 @@ fn scene_error(a: &Image, b: &Image, mask: &[bool]) -> Result<SceneError, Render
     Ok(SceneError {
         mean_de,
         p99_de: p99,
+        silhouette_mean_de: mean(&silhouette),
         non_finite_pixels,
     })
 }
@@ -746,10 +787,10 @@ mod tests {
         let mut pixels = vec![[0.5; 3]; 4];
         pixels[1] = [f32::INFINITY, 0.5, 0.5];
         pixels[2] = [f32::NAN; 3];
-        let e = scene_error(&a, &Image::new(2, 2, pixels), &[true; 4]).unwrap();
+        let e = scene_error(&a, &Image::new(2, 2, pixels), &[PixelKind::Interior; 4]).unwrap();
         assert_eq!(e.non_finite_pixels, 2);
         assert!(e.mean_de.is_finite() && e.mean_de > 10.0, "{e:?}");
-        let same = scene_error(&a, &a, &[true; 4]).unwrap();
+        let same = scene_error(&a, &a, &[PixelKind::Interior; 4]).unwrap();
         assert_eq!((same.non_finite_pixels, same.mean_de), (0, 0.0));
     }
 
@@ -759,20 +800,28 @@ mod tests {
         // error.
         let a = Image::new(2, 2, vec![[0.5; 3], [0.5; 3], [0.3; 3], [0.3; 3]]);
         let b = Image::new(2, 2, vec![[0.5; 3], [0.5; 3], [0.2; 3], [0.3; 3]]);
-        let one = scene_error(&a, &b, &[false, false, true, false]).unwrap();
-        let all = scene_error(&a, &b, &[true; 4]).unwrap();
+        use PixelKind::{Interior, Off, Silhouette};
+        let one = scene_error(&a, &b, &[Off, Off, Silhouette, Off]).unwrap();
+        let all = scene_error(&a, &b, &[Interior; 4]).unwrap();
         assert!(one.mean_de > 5.0, "{one:?}");
+        assert_eq!(one.silhouette_mean_de, one.mean_de);
         assert!((all.mean_de * 4.0 - one.mean_de).abs() < 1e-9, "{all:?}");
-        assert!(scene_error(&a, &b, &[true; 3]).is_err());
-        // Both scenes: the sphere covers about 64% of the frame.
+        assert_eq!(all.silhouette_mean_de, 0.0);
+        assert!(scene_error(&a, &b, &[Interior; 3]).is_err());
+        // Both scenes: the sphere covers about 64% of the frame, its
+        // silhouette (beyond 70 degrees) about 12% of the sphere.
         let settings = ValidationSettings {
             size: 48,
             ..RENDER_CHECK
         };
         for scene in validation_scenes(settings).unwrap() {
             let mask = object_mask(&scene);
-            let share = mask.iter().filter(|&&m| m).count() as f64 / mask.len() as f64;
+            let count = |k: PixelKind| mask.iter().filter(|&&m| m == k).count() as f64;
+            let sphere = count(Interior) + count(Silhouette);
+            let share = sphere / mask.len() as f64;
             assert!((share - 0.64).abs() < 0.03, "{share}");
+            let rim = count(Silhouette) / sphere;
+            assert!((rim - 0.12).abs() < 0.03, "{rim}");
         }
     }
 }
