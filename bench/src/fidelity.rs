@@ -59,6 +59,13 @@ pub struct FidelityArgs {
     /// Bins per angle of the 3-D grid.
     #[arg(long, default_value_t = 24)]
     resolution_3d: usize,
+    /// An elevation cut (degrees, in [45, 90)) for the 3-D fits: cells with
+    /// either direction further from the normal are not fitted, and every
+    /// evaluation moves such directions onto the cut (`brdf::clamp_elevation`,
+    /// as for the 2-D slice). Default: none, the whole hemisphere, its
+    /// grazing cells loosely bounded.
+    #[arg(long)]
+    cut_3d: Option<f64>,
     /// Largest coefficient budget per channel.
     #[arg(long, default_value_t = 120)]
     max_coeffs: usize,
@@ -146,6 +153,7 @@ struct Plan {
     lobes: Vec<LobeChoice>,
     tols: Vec<f64>,
     resolution_3d: usize,
+    cut_3d: Option<f64>,
     max_coeffs: usize,
     hemisphere: HemisphereSettings,
 }
@@ -167,8 +175,13 @@ fn rational_reps(table: &dyn Brdf, plan: &Plan) -> Vec<Attempt> {
     if plan.perceptual_2d {
         let start = Instant::now();
         let t = plan.tols.iter().copied().fold(0.0, f64::max).min(0.08);
+        let grid = rational_mode::Grid {
+            dims: 2,
+            resolution: 90,
+            cut: None,
+        };
         let r =
-            rational_mode::fit_perceptual(table, 2, t, 90, plan.max_coeffs, ColourMode::Rgb, None);
+            rational_mode::fit_perceptual(table, grid, t, plan.max_coeffs, ColourMode::Rgb, None);
         out.push((
             format!("rational 2-D perceptual {}%", t * 100.0),
             r,
@@ -188,19 +201,17 @@ fn rational_reps(table: &dyn Brdf, plan: &Plan) -> Vec<Attempt> {
                     (LobeChoice::Ggx, Some((l, s))) => (Some(*l), *s),
                     _ => (None, 0.0),
                 };
-                let r = rational_mode::fit_perceptual(
-                    table,
-                    3,
-                    t,
-                    plan.resolution_3d,
-                    plan.max_coeffs,
-                    mode,
-                    with,
-                );
+                let grid = rational_mode::Grid {
+                    dims: 3,
+                    resolution: plan.resolution_3d,
+                    cut: plan.cut_3d,
+                };
+                let r = rational_mode::fit_perceptual(table, grid, t, plan.max_coeffs, mode, with);
                 let what = mode.to_string();
                 let lobe_name = if with.is_some() { " x GGX lobe" } else { "" };
+                let cut = plan.cut_3d.map_or(String::new(), |c| format!(" cut {c}"));
                 out.push((
-                    format!("rational 3-D {what}{lobe_name} {}%", t * 100.0),
+                    format!("rational 3-D {what}{lobe_name} {}%{cut}", t * 100.0),
                     r,
                     start.elapsed().as_secs_f64() + lobe_s,
                 ));
@@ -292,17 +303,33 @@ mod rational_mode {
         Ok((f, d))
     }
 
+    /// Where a perceptual fit samples its table.
+    #[derive(Clone, Copy)]
+    pub struct Grid {
+        /// 2 (the `phi_d = pi/2` slice) or 3.
+        pub dims: usize,
+        /// Bins per angle.
+        pub resolution: usize,
+        /// An elevation cut in degrees; `None`: the whole hemisphere.
+        pub cut: Option<f64>,
+    }
+
     /// The 2-D slice or the full `(theta_h, theta_d, phi_d)` grid over the
-    /// whole hemisphere with perceptual intervals.
+    /// whole hemisphere (or within the grid's elevation cut) with
+    /// perceptual intervals.
     pub fn fit_perceptual(
         table: &dyn Brdf,
-        dims: usize,
+        grid: Grid,
         rel_tol: f64,
-        resolution: usize,
         max_coeffs: usize,
         mode: ColourMode,
         lobe: Option<brdf::Lobe>,
     ) -> Result<(FittedBrdf, String)> {
+        let Grid {
+            dims,
+            resolution,
+            cut,
+        } = grid;
         let kind = if dims == 3 {
             ReductionKind::Full3d
         } else {
@@ -313,6 +340,10 @@ mod rational_mode {
             .with_resolution(resolution, resolution)
             .with_phi_resolution(resolution)
             .whole_hemisphere();
+        let reduction = match cut {
+            Some(degrees) => reduction.with_max_elevation(degrees),
+            None => reduction,
+        };
         let settings = BrdfFitSettings::default()
             .with_reduction(reduction)
             .with_design(PerceptualBounds::default().with_rel_tol(rel_tol)?)
@@ -436,6 +467,11 @@ pub fn run(args: FidelityArgs) -> Result<()> {
     if !(2..=90).contains(&args.resolution_3d) {
         bail!("--resolution-3d {}: use 2 to 90 bins", args.resolution_3d);
     }
+    if let Some(c) = args.cut_3d {
+        if !(45.0..90.0).contains(&c) {
+            bail!("--cut-3d {c}: use an elevation in [45, 90) degrees");
+        }
+    }
     if !(8..=1024).contains(&args.size) || !(1..=4096).contains(&args.sky_spp) {
         bail!("--size must be in 8..=1024 and --sky-spp in 1..=4096");
     }
@@ -540,6 +576,7 @@ fn settings_and_plan(args: &FidelityArgs) -> (ValidationSettings, Plan) {
             args.tols.clone()
         },
         resolution_3d: if args.quick { 16 } else { args.resolution_3d },
+        cut_3d: args.cut_3d,
         max_coeffs: if args.quick {
             args.max_coeffs.min(60)
         } else {
@@ -785,8 +822,9 @@ fn summary(args: &FidelityArgs, rows: &[Row], noise: &[(String, Vec<f64>)], wall
         "Mean and 99th-percentile CIEDE2000 over the sphere's pixels (those whose centre sees \
          the sphere, not black in both images; before 2026-12-03 the sky's figures also counted \
          the sky and ground around it, equal in both, and were about 1.6x lower) against the \
-         table's render; `*_silhouette_de` in `results.csv`: the mean over the pixels that view \
-         the sphere more than 70 degrees from its normal (lights: three directional lights; sky: sky and ground, MIS). Relative error: luminance, \
+         table's render (lights: three directional lights; sky: sky and ground, MIS); \
+         `*_silhouette_de` in `results.csv`: the mean over the pixels that view the sphere more \
+         than 70 degrees from its normal. Relative error: luminance, \
          over random direction pairs of the whole hemisphere with a table value above 1e-3 of its \
          peak, by band of the larger elevation. Peak: the largest value on a dense grid of the \
          hemisphere over the table's.\n"
