@@ -43,9 +43,13 @@ pub struct FitArgs {
     #[arg(long, default_value_t = 78.0, value_parser = crate::args::angle_deg)]
     max_theta_d: f64,
     /// Cells with either direction further than this from the normal
-    /// (degrees, in (0, 90]) are not sampled.
-    #[arg(long, default_value_t = 70.0, value_parser = crate::args::angle_deg)]
-    max_elevation: f64,
+    /// (degrees, in (0, 90]) are not sampled, and evaluation moves such
+    /// directions onto the cut. Default: 70 with plain intervals; the whole
+    /// hemisphere with `--perceptual` and `--target-de` unless given (a cut
+    /// of 70 or 75 lowers the render error of some 3-D fits at the
+    /// silhouette: docs/guide/fidelity.md).
+    #[arg(long, value_parser = crate::args::angle_deg)]
+    max_elevation: Option<f64>,
     /// Grid resolution as `NH,ND[,NP]` (theta_h, theta_d, phi_d bins, each
     /// in 2..=4096).
     #[arg(long, value_parser = crate::args::bins)]
@@ -97,7 +101,8 @@ pub struct FitArgs {
     /// Perceptual intervals (`brdf::PerceptualBounds`): `--rel-tol` where
     /// the reflected light is visible, an absolute floor on `f cos_i cos_o`
     /// elsewhere, never tighter than the table's estimated noise, and every
-    /// cell of the hemisphere constrained (no elevation or grazing cut).
+    /// cell of the hemisphere constrained (no grazing cut, and no elevation
+    /// cut unless `--max-elevation` gives one).
     #[arg(long)]
     perceptual: bool,
     /// At most this many refits that add the points where the fit exceeds
@@ -153,8 +158,10 @@ fn reduction(args: &FitArgs) -> Result<Reduction> {
     let mut r = Reduction::default()
         .with_kind(kind)
         .with_coordinates(coords)
-        .with_max_theta_d(args.max_theta_d)
-        .with_max_elevation(args.max_elevation);
+        .with_max_theta_d(args.max_theta_d);
+    if let Some(degrees) = args.max_elevation {
+        r = r.with_max_elevation(degrees);
+    }
     if kind == ReductionKind::Full3d {
         // The full MERL grid is 1.46 M cells per channel; default to a 45^3 subgrid.
         r = r.with_resolution(45, 45).with_phi_resolution(45);
@@ -226,7 +233,7 @@ pub fn fit_to_json(args: &FitArgs) -> Result<serde_json::Value> {
         settings = settings.with_channel_progress(bar);
     }
     if args.perceptual {
-        let whole = settings.reduction().whole_hemisphere();
+        let whole = within_cut(settings.reduction().whole_hemisphere(), args);
         settings = settings
             .with_reduction(whole)
             .with_design(brdf::PerceptualBounds::default().with_rel_tol(args.rel_tol)?);
@@ -274,6 +281,15 @@ fn peak_check(table: &dyn Brdf, fitted: &FittedBrdf) -> brdf::fidelity::FitPeaks
     brdf::fidelity::fit_peaks(table, fitted, grid)
 }
 
+/// A whole-hemisphere reduction with the elevation cut `--max-elevation`
+/// gives, if any.
+fn within_cut(whole: Reduction, args: &FitArgs) -> Reduction {
+    match args.max_elevation {
+        Some(degrees) => whole.with_max_elevation(degrees),
+        None => whole,
+    }
+}
+
 fn describe_render(r: &render_cpu::fidelity::RenderErrors) -> String {
     format!(
         "render error against the table (mean CIEDE2000, 64 x 64; --no-render-check skips): \
@@ -315,6 +331,7 @@ fn run_fit_target(
             ReductionKind::Full3d
         })
         .whole_hemisphere();
+    reduction = within_cut(reduction, args);
     if args.resolution.is_none() {
         reduction = if slice_only {
             reduction.with_resolution(90, 90)

@@ -821,3 +821,42 @@ fn ctrl_c_stops_a_long_fit_promptly_and_writes_nothing() {
     );
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn perceptual_fits_take_an_elevation_cut_only_when_asked() {
+    let dir = scratch("perceptual-cut");
+    let merl = dir.join("m.binary");
+    brdf::MerlBrdf::tabulate(
+        &brdf::BlinnPhong {
+            kd: [0.2, 0.3, 0.4],
+            ks: [0.3; 3],
+            exponent: 20.0,
+        },
+        brdf::TabulateOptions::default(),
+    )
+    .write(&merl)
+    .unwrap();
+    for (cut, want) in [(None, 90.0), (Some("75"), 75.0)] {
+        let fit = dir.join("fit.json");
+        let mut cmd = ratfit();
+        cmd.arg("fit")
+            .arg(&merl)
+            .args(["--format", "merl", "--perceptual", "--rel-tol", "0.2"])
+            .args(["--dims", "3", "--resolution", "8,8,8", "--no-render-check"]);
+        if let Some(c) = cut {
+            cmd.args(["--max-elevation", c]);
+        }
+        let out = cmd.arg("-o").arg(&fit).output().unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let json: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&fit).unwrap()).unwrap();
+        let got = json["brdf"]["reduction"]["max_elevation_deg"]
+            .as_f64()
+            .unwrap();
+        assert!((got - want).abs() < 1e-12, "{cut:?}: {got}");
+    }
+}
