@@ -296,10 +296,8 @@ fn brdf_demo_fits_renders_and_exports() {
     std::fs::remove_dir_all(dir).ok();
 }
 
-#[test]
-fn fit_eval_export_and_plot_a_merl_file() {
-    // A MERL file written from an analytic material stands in for a download.
-    let dir = scratch("merl");
+/// A MERL file written from an analytic material, in `dir`.
+fn blinn_phong_merl(dir: &std::path::Path) -> PathBuf {
     let merl = dir.join("m.binary");
     brdf::MerlBrdf::tabulate(
         &brdf::BlinnPhong {
@@ -311,6 +309,14 @@ fn fit_eval_export_and_plot_a_merl_file() {
     )
     .write(&merl)
     .unwrap();
+    merl
+}
+
+#[test]
+fn fit_eval_export_and_plot_a_merl_file() {
+    // A MERL file written from an analytic material stands in for a download.
+    let dir = scratch("merl");
+    let merl = blinn_phong_merl(&dir);
     let fit = dir.join("fit.json");
     let out = ratfit()
         .arg("fit")
@@ -825,17 +831,7 @@ fn ctrl_c_stops_a_long_fit_promptly_and_writes_nothing() {
 #[test]
 fn perceptual_fits_take_an_elevation_cut_only_when_asked() {
     let dir = scratch("perceptual-cut");
-    let merl = dir.join("m.binary");
-    brdf::MerlBrdf::tabulate(
-        &brdf::BlinnPhong {
-            kd: [0.2, 0.3, 0.4],
-            ks: [0.3; 3],
-            exponent: 20.0,
-        },
-        brdf::TabulateOptions::default(),
-    )
-    .write(&merl)
-    .unwrap();
+    let merl = blinn_phong_merl(&dir);
     for (cut, want) in [(None, 90.0), (Some("75"), 75.0)] {
         let fit = dir.join("fit.json");
         let mut cmd = ratfit();
