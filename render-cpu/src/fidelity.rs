@@ -18,6 +18,7 @@ use crate::compare::compare;
 use crate::description::SceneDescription;
 use crate::image::Image;
 use crate::integrator::render;
+use crate::math::dot;
 use crate::prepare::{prepare, RenderOptions};
 use crate::scene::Scene;
 use crate::RenderError;
@@ -199,9 +200,7 @@ fn object_mask(scene: &Scene) -> Vec<PixelKind> {
             let ray = scene.camera.ray((n % w) as f64 + 0.5, (n / w) as f64 + 0.5);
             match scene.intersect(&ray) {
                 Some((hit, 0)) => {
-                    let n = hit.shading_normal;
-                    let cos_view = -(n[0] * ray.dir[0] + n[1] * ray.dir[1] + n[2] * ray.dir[2]);
-                    if cos_view < grazing {
+                    if -dot(ray.dir, hit.shading_normal) < grazing {
                         PixelKind::Silhouette
                     } else {
                         PixelKind::Interior
