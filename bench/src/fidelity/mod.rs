@@ -1,0 +1,443 @@
+//! `ratfit bench fidelity`: every representation of every material judged by
+//! its renders. For each material: the table rendered on the two validation
+//! scenes, then each representation (rational modes, Cook-Torrance GGX
+//! fitted to the whole material, the table downsampled to the same bytes)
+//! measured by mean and 99th-percentile CIEDE2000 over the object's pixels,
+//! BRDF-space relative error by elevation band over the whole hemisphere,
+//! and the largest value anywhere against the table's peak. Writes
+//! `results.csv`, `summary.md`, `de_vs_bytes.svg`/`.png` (the Pareto front
+//! ringed) and table / representation / difference images, then checks them.
+
+use super::instances::data_dir;
+use anyhow::{bail, Context, Result};
+use brdf::fidelity::{hemisphere_errors, HemisphereErrors, HemisphereSettings};
+use brdf::{Brdf, ColourMode, DownsampledTable, MerlBrdf, RglBrdf};
+use clap::Args;
+use render_cpu::fidelity::{RenderErrors, ValidationSettings, Validator};
+use render_cpu::FitInDomain;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::Instant;
+
+mod outputs;
+mod reps;
+
+use outputs::{check, write_images, write_outputs};
+use reps::{rational_reps, Plan};
+
+/// Options of `ratfit bench fidelity`.
+#[derive(Args)]
+pub struct FidelityArgs {
+    /// Folder of materials (`.bsdf` RGL, `.binary` MERL), or one file;
+    /// default: `rgl` under `RATFIT_DATA` or `../shared/data`.
+    path: Option<PathBuf>,
+    /// Output folder.
+    #[arg(long, default_value = "target/bench-fidelity")]
+    out: PathBuf,
+    /// A few materials at small size (under three minutes): 2 RGL files,
+    /// 64 x 64 renders, the 2-D fit at 20% and the 3-D luminance-chroma
+    /// fits at 16% on a 16^3 grid, with and without the GGX lobe, with at
+    /// most 60 coefficients per function.
+    #[arg(long)]
+    quick: bool,
+    /// Skip the 2-D perceptual fit, the slowest representation on glossy
+    /// materials (up to about 45 minutes on 2 cores).
+    #[arg(long)]
+    no_perceptual_2d: bool,
+    /// Only materials whose file name contains this.
+    #[arg(long)]
+    only: Option<String>,
+    /// Relative half-widths of the perceptual 3-D fits (comma-separated).
+    #[arg(long, value_delimiter = ',', default_value = "0.08,0.16")]
+    tols: Vec<f64>,
+    /// Colour modes of the 3-D fits (comma-separated: rgb,
+    /// luminance-chroma).
+    #[arg(long, value_delimiter = ',', default_value = "rgb,luminance-chroma")]
+    colour: Vec<ColourMode>,
+    /// Lobes of the 3-D fits (comma-separated): none (the table itself) and
+    /// ggx (the ratio of the table to a fitted Cook-Torrance GGX lobe; see
+    /// `ratfit fit --lobe`).
+    #[arg(long, value_delimiter = ',', default_value = "none,ggx")]
+    lobe: Vec<LobeChoice>,
+    /// Bins per angle of the 3-D grid.
+    #[arg(long, default_value_t = 24)]
+    resolution_3d: usize,
+    /// An elevation cut (degrees, in [45, 90)) for the 3-D fits: cells with
+    /// either direction further from the normal are not fitted, and every
+    /// evaluation moves such directions onto the cut (`brdf::clamp_elevation`,
+    /// as for the 2-D slice). Default: none, the whole hemisphere, its
+    /// grazing cells loosely bounded.
+    #[arg(long)]
+    cut_3d: Option<f64>,
+    /// Largest coefficient budget per channel.
+    #[arg(long, default_value_t = 120)]
+    max_coeffs: usize,
+    /// Validation render size (pixels per side).
+    #[arg(long, default_value_t = 96)]
+    size: usize,
+    /// Samples per pixel of the sky scene (scrambled Sobol' points at the
+    /// pixel centres: 1024 brings two renders of a table within about 0.1
+    /// to 0.25 CIEDE2000 of each other).
+    #[arg(long, default_value_t = 1024)]
+    sky_spp: usize,
+}
+
+/// What the rational functions of a 3-D fit multiply.
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum LobeChoice {
+    /// Nothing: the functions fit the table.
+    None,
+    /// A Cook-Torrance GGX lobe fitted to the table first.
+    Ggx,
+}
+
+/// One representation of one material.
+struct Row {
+    material: String,
+    representation: String,
+    bytes: usize,
+    fit_s: f64,
+    render: RenderErrors,
+    hemisphere: HemisphereErrors,
+    note: String,
+}
+
+fn materials(path: &Path, only: Option<&str>, quick: bool) -> Result<Vec<PathBuf>> {
+    let mut files: Vec<PathBuf> = if path.is_file() {
+        vec![path.to_path_buf()]
+    } else {
+        std::fs::read_dir(path)
+            .with_context(|| format!("cannot read {}", path.display()))?
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| p.extension().is_some_and(|x| x == "bsdf" || x == "binary"))
+            .collect()
+    };
+    files.retain(|p| {
+        only.is_none_or(|o| {
+            p.file_name()
+                .is_some_and(|n| n.to_string_lossy().contains(o))
+        })
+    });
+    files.sort();
+    if quick {
+        // One matte and one glossy file when both are there.
+        let pick: Vec<PathBuf> = ["cm_military_green", "vch_golden_yellow"]
+            .iter()
+            .filter_map(|n| {
+                files
+                    .iter()
+                    .find(|p| p.to_string_lossy().contains(n))
+                    .cloned()
+            })
+            .collect();
+        files = if pick.is_empty() {
+            files.into_iter().take(2).collect()
+        } else {
+            pick
+        };
+    }
+    if files.is_empty() {
+        bail!("no material files (.bsdf, .binary) in {}", path.display());
+    }
+    Ok(files)
+}
+
+fn load(path: &Path) -> Result<Arc<dyn Brdf>> {
+    Ok(match path.extension().and_then(|e| e.to_str()) {
+        Some("binary") => Arc::new(MerlBrdf::read(path)?),
+        _ => Arc::new(RglBrdf::read(path)?),
+    })
+}
+
+/// What every candidate of one material is measured against.
+struct Judge<'a> {
+    material: &'a str,
+    table: &'a dyn Brdf,
+    validator: &'a Validator,
+    plan: &'a Plan,
+}
+
+/// One representation to measure.
+struct Candidate {
+    name: String,
+    brdf: Arc<dyn Brdf>,
+    bytes: usize,
+    fit_s: f64,
+    note: String,
+}
+
+fn measure(judge: &Judge, c: Candidate) -> Result<Row> {
+    let Candidate {
+        name,
+        brdf: candidate,
+        bytes,
+        fit_s,
+        note,
+    } = c;
+    let (material, table, validator, plan) =
+        (judge.material, judge.table, judge.validator, judge.plan);
+    let render = validator.measure(candidate.clone())?;
+    let hemisphere = hemisphere_errors(table, candidate.as_ref(), &plan.hemisphere);
+    let non_finite: usize = render.scenes.iter().map(|s| s.non_finite_pixels).sum();
+    let note = if non_finite > 0 {
+        format!("{note}; {non_finite} non-finite pixels (counted as white)")
+    } else {
+        note
+    };
+    let row = Row {
+        material: material.to_string(),
+        representation: name,
+        bytes,
+        fit_s,
+        render,
+        hemisphere,
+        note,
+    };
+    println!(
+        "  {:<46} {:>6} B  fit {:>7.2} s  dE lights {:>6.3} (p99 {:>6.2}, silhouette {:>6.2})  sky {:>6.3} (p99 {:>6.2}, silhouette {:>6.2})  median rel <80 {:>6.3}  peak x{:<6.2} {}",
+        row.representation,
+        row.bytes,
+        row.fit_s,
+        row.render.scenes[0].mean_de,
+        row.render.scenes[0].p99_de,
+        row.render.scenes[0].silhouette_mean_de,
+        row.render.scenes[1].mean_de,
+        row.render.scenes[1].p99_de,
+        row.render.scenes[1].silhouette_mean_de,
+        row.hemisphere.median_below_80,
+        row.hemisphere.peak_ratio,
+        row.note
+    );
+    Ok(row)
+}
+
+/// Runs `ratfit bench fidelity`.
+pub fn run(args: FidelityArgs) -> Result<()> {
+    let start = Instant::now();
+    for &t in &args.tols {
+        if !(t > 0.0 && t < 1.0) {
+            bail!("--tols: {t} is not in (0, 1)");
+        }
+    }
+    if !(2..=90).contains(&args.resolution_3d) {
+        bail!("--resolution-3d {}: use 2 to 90 bins", args.resolution_3d);
+    }
+    if let Some(c) = args.cut_3d {
+        if !(45.0..90.0).contains(&c) {
+            bail!("--cut-3d {c}: use an elevation in [45, 90) degrees");
+        }
+    }
+    if !(8..=1024).contains(&args.size) || !(1..=4096).contains(&args.sky_spp) {
+        bail!("--size must be in 8..=1024 and --sky-spp in 1..=4096");
+    }
+    if args.colour.is_empty() {
+        bail!("--colour needs at least one mode (rgb, luminance-chroma)");
+    }
+    let path = match &args.path {
+        Some(p) => p.clone(),
+        None => data_dir()
+            .map(|d| d.join("rgl"))
+            .context("no material folder given and no data directory found (set RATFIT_DATA)")?,
+    };
+    let files = materials(&path, args.only.as_deref(), args.quick)?;
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("cannot create {}", args.out.display()))?;
+    let (settings, plan) = settings_and_plan(&args);
+    let mut rows: Vec<Row> = Vec::new();
+    let mut noise: Vec<(String, Vec<f64>)> = Vec::new();
+    for file in &files {
+        let material = file
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        let t0 = Instant::now();
+        let table = load(file)?;
+        let validator = Validator::new(table.clone(), settings)?;
+        let floor: Vec<f64> = validator.noise.iter().map(|n| n.mean_de).collect();
+        println!(
+            "{material}: table rendered in {:.1} s; table against itself (another seed): dE lights {:.3}, sky {:.3}",
+            t0.elapsed().as_secs_f64(),
+            floor[0],
+            floor[1]
+        );
+        noise.push((material.clone(), floor));
+        let judge = Judge {
+            material: &material,
+            table: table.as_ref(),
+            validator: &validator,
+            plan: &plan,
+        };
+        let material_rows = measure_material(&judge)?;
+        for row in &material_rows {
+            write_images(
+                &args.out,
+                &material,
+                &row.representation,
+                validator.references(),
+                row,
+            )?;
+        }
+        rows.extend(material_rows);
+        write_outputs(&args, &rows, &noise, start.elapsed().as_secs_f64())?;
+    }
+    let problems = check(&args.out, &rows, &noise);
+    if !problems.is_empty() {
+        for p in &problems {
+            eprintln!("check: {p}");
+        }
+        bail!("{} problem(s) in {}", problems.len(), args.out.display());
+    }
+    println!(
+        "check: {} is complete ({} rows); wrote {} in {:.1} s",
+        args.out.display(),
+        rows.len(),
+        args.out.display(),
+        start.elapsed().as_secs_f64()
+    );
+    Ok(())
+}
+
+/// The validation renders and the representations of a run.
+fn settings_and_plan(args: &FidelityArgs) -> (ValidationSettings, Plan) {
+    let settings = if args.quick {
+        ValidationSettings {
+            size: 64,
+            lights_spp: 1,
+            sky_spp: 32,
+            seed: 1,
+        }
+    } else {
+        ValidationSettings {
+            size: args.size,
+            sky_spp: args.sky_spp,
+            ..Default::default()
+        }
+    };
+    let plan = Plan {
+        perceptual_2d: !args.quick && !args.no_perceptual_2d,
+        modes: if args.quick {
+            vec![ColourMode::LuminanceChroma]
+        } else {
+            args.colour.clone()
+        },
+        lobes: if args.quick {
+            vec![LobeChoice::None, LobeChoice::Ggx]
+        } else {
+            args.lobe.clone()
+        },
+        tols: if args.quick {
+            vec![0.16]
+        } else {
+            args.tols.clone()
+        },
+        resolution_3d: if args.quick { 16 } else { args.resolution_3d },
+        cut_3d: args.cut_3d,
+        max_coeffs: if args.quick {
+            args.max_coeffs.min(60)
+        } else {
+            args.max_coeffs
+        },
+        hemisphere: if args.quick {
+            HemisphereSettings {
+                pairs: 10_000,
+                grid: [32, 32, 16],
+                ..Default::default()
+            }
+        } else {
+            HemisphereSettings::default()
+        },
+    };
+    (settings, plan)
+}
+
+/// The note of a fit with a ceiling that binds on the peak check's grid,
+/// with the peak ratio the functions reach without it: the ceiling bounds
+/// what is rendered, and the note keeps the fit's own excess in sight.
+fn with_unclamped_peak(note: String, judge: &Judge, fitted: &brdf::FittedBrdf) -> String {
+    if fitted.ceiling.is_none() {
+        return note;
+    }
+    let p = brdf::fidelity::fit_peaks(judge.table, fitted, judge.plan.hemisphere.grid);
+    let (with, without) = (p.ratio, p.ratio_without_ceiling);
+    if without > with * (1.0 + 1e-9) {
+        format!("{note}; the ceiling holds: peak x{without:.2} without it")
+    } else {
+        note
+    }
+}
+
+/// Every representation of one material, measured.
+fn measure_material(judge: &Judge) -> Result<Vec<Row>> {
+    let mut material_rows = Vec::new();
+    for (name, result, fit_s) in rational_reps(judge.table, judge.plan) {
+        match result {
+            Ok((fitted, note)) => {
+                let bytes = fitted.byte_size_f32();
+                let note = with_unclamped_peak(note, judge, &fitted);
+                let candidate: Arc<dyn Brdf> = Arc::new(FitInDomain::new(fitted));
+                let row = measure(
+                    judge,
+                    Candidate {
+                        name,
+                        brdf: candidate,
+                        bytes,
+                        fit_s,
+                        note,
+                    },
+                )?;
+                material_rows.push(row);
+            }
+            Err(e) => println!("  {name:<46} no fit: {}", crate::output::chain_text(&e)),
+        }
+    }
+    // The analytic peer.
+    let ggx = brdf::baseline::fit_ggx(judge.table);
+    let note = format!(
+        "kd {:.3?} f0 {:.3?} alpha {:.4}",
+        ggx.model.kd, ggx.model.f0, ggx.model.alpha
+    );
+    let row = measure(
+        judge,
+        Candidate {
+            name: "Cook-Torrance GGX (LM, log)".into(),
+            brdf: Arc::new(ggx.model),
+            bytes: 28,
+            fit_s: ggx.seconds,
+            note,
+        },
+    )?;
+    material_rows.push(row);
+    // The table downsampled to the bytes of each rational representation
+    // and to 1 KB.
+    let mut budgets: Vec<usize> = material_rows
+        .iter()
+        .filter(|r| r.representation.starts_with("rational"))
+        .map(|r| r.bytes)
+        .chain([1024])
+        .collect();
+    budgets.sort_unstable();
+    // Two budgets may give the same grid: measure each grid once.
+    let mut grids: Vec<[usize; 3]> = budgets
+        .into_iter()
+        .map(DownsampledTable::bins_for_bytes)
+        .collect();
+    grids.sort_by_key(|b| (b[0] * b[1] * b[2], *b));
+    grids.dedup();
+    for bins in grids {
+        let t1 = Instant::now();
+        let down = DownsampledTable::new(judge.table, bins);
+        let size = down.byte_size_f32();
+        let row = measure(
+            judge,
+            Candidate {
+                name: format!("table downsampled to {size} B"),
+                brdf: Arc::new(down),
+                bytes: size,
+                fit_s: t1.elapsed().as_secs_f64(),
+                note: format!("{}x{}x{} cells", bins[0], bins[1], bins[2]),
+            },
+        )?;
+        material_rows.push(row);
+    }
+    Ok(material_rows)
+}

@@ -1,0 +1,220 @@
+//! The rational representations `bench fidelity` fits: the plain 2-D
+//! slice, the 2-D perceptual fit and the 3-D perceptual fits by colour
+//! mode, lobe and tolerance.
+
+use super::LobeChoice;
+use anyhow::Result;
+use brdf::fidelity::HemisphereSettings;
+use brdf::{Brdf, ColourMode};
+use std::time::Instant;
+
+/// Settings of the representations measured.
+pub(super) struct Plan {
+    pub(super) perceptual_2d: bool,
+    pub(super) modes: Vec<ColourMode>,
+    pub(super) lobes: Vec<LobeChoice>,
+    pub(super) tols: Vec<f64>,
+    pub(super) resolution_3d: usize,
+    pub(super) cut_3d: Option<f64>,
+    pub(super) max_coeffs: usize,
+    pub(super) hemisphere: HemisphereSettings,
+}
+
+/// A representation's name, its fit and description (or why it failed),
+/// and the fit time.
+pub(super) type Attempt = (String, Result<(brdf::FittedBrdf, String)>, f64);
+
+pub(super) fn rational_reps(table: &dyn Brdf, plan: &Plan) -> Vec<Attempt> {
+    let mut out = Vec::new();
+    // Today's former default for scenes: the 2-D slice at 20% inside the cuts.
+    let start = Instant::now();
+    let r = rational_mode::fit_plain_2d(table, 0.2, plan.max_coeffs);
+    out.push((
+        "rational 2-D 20%".to_string(),
+        r,
+        start.elapsed().as_secs_f64(),
+    ));
+    if plan.perceptual_2d {
+        let start = Instant::now();
+        let t = plan.tols.iter().copied().fold(0.0, f64::max).min(0.08);
+        let grid = rational_mode::Grid {
+            dims: 2,
+            resolution: 90,
+            cut: None,
+        };
+        let r =
+            rational_mode::fit_perceptual(table, grid, t, plan.max_coeffs, ColourMode::Rgb, None);
+        out.push((
+            format!("rational 2-D perceptual {}%", t * 100.0),
+            r,
+            start.elapsed().as_secs_f64(),
+        ));
+    }
+    // The lobe is fitted once; its time counts in every fit that uses it.
+    let lobe = plan.lobes.contains(&LobeChoice::Ggx).then(|| {
+        let start = Instant::now();
+        (brdf::Lobe::fit(table), start.elapsed().as_secs_f64())
+    });
+    for &t in &plan.tols {
+        for &mode in &plan.modes {
+            for &choice in &plan.lobes {
+                let start = Instant::now();
+                let (with, lobe_s) = match (choice, &lobe) {
+                    (LobeChoice::Ggx, Some((l, s))) => (Some(*l), *s),
+                    _ => (None, 0.0),
+                };
+                let grid = rational_mode::Grid {
+                    dims: 3,
+                    resolution: plan.resolution_3d,
+                    cut: plan.cut_3d,
+                };
+                let r = rational_mode::fit_perceptual(table, grid, t, plan.max_coeffs, mode, with);
+                let what = mode.to_string();
+                let lobe_name = if with.is_some() { " x GGX lobe" } else { "" };
+                let cut = plan.cut_3d.map_or(String::new(), |c| format!(" cut {c}"));
+                out.push((
+                    format!("rational 3-D {what}{lobe_name} {}%{cut}", t * 100.0),
+                    r,
+                    start.elapsed().as_secs_f64() + lobe_s,
+                ));
+            }
+        }
+    }
+    out
+}
+
+/// The rational modes the benchmark fits, by name.
+mod rational_mode {
+    use anyhow::Result;
+    use brdf::{
+        fit_brdf, Brdf, BrdfFitSettings, ColourMode, FittedBrdf, PerceptualBounds, Reduction,
+        ReductionKind,
+    };
+    use rational_core::{FitSettings, Search};
+
+    /// The staircase search; perceptual intervals widen by sqrt 2 up to
+    /// 16 times (as `ratfit fit --perceptual`), plain ones by 2.
+    fn engine(max_coeffs: usize, perceptual: bool) -> Result<FitSettings> {
+        let (factor, times) = if perceptual {
+            (std::f64::consts::SQRT_2, 8)
+        } else {
+            (2.0, 4)
+        };
+        Ok(FitSettings::default()
+            .with_coeff_range(2, max_coeffs)?
+            .with_search(Search::Staircase)
+            .with_widening(factor, times)?)
+    }
+
+    fn describe(fitted: &FittedBrdf, report: &brdf::BrdfFitReport) -> String {
+        let widened: Vec<String> = report
+            .channels
+            .iter()
+            .filter(|c| c.interval_scale > 1.0)
+            .map(|c| format!("{} x{}", c.channel, brdf::scale_text(c.interval_scale)))
+            .collect();
+        let splits: Vec<String> = report
+            .channels
+            .iter()
+            .map(|c| format!("({},{})", c.n_p, c.n_q))
+            .collect();
+        let verified = report.channels.iter().all(|c| c.verified);
+        // The dense cap check's largest value over the cap left, per function.
+        let caps: Vec<String> = report
+            .channels
+            .iter()
+            .filter_map(|c| c.cap.map(|k| (c.channel, k)))
+            .map(|(ch, k)| {
+                if k.non_finite > 0 {
+                    format!("{ch} {:.2} ({} not finite)", k.largest, k.non_finite)
+                } else {
+                    format!("{ch} {:.2}", k.largest)
+                }
+            })
+            .collect();
+        format!(
+            "splits {}; {}{}",
+            splits.join(" "),
+            if verified { "verified" } else { "NOT verified" },
+            if widened.is_empty() {
+                String::new()
+            } else {
+                format!("; widened {}", widened.join(" "))
+            }
+        ) + &format!("; {} coefficients", fitted.coefficients())
+            + &if caps.is_empty() {
+                String::new()
+            } else {
+                format!("; over the cap x {}", caps.join(" "))
+            }
+    }
+
+    /// The 2-D `phi_d = pi/2` slice with plain relative intervals inside the
+    /// 78-degree grazing and 70-degree elevation cuts.
+    pub fn fit_plain_2d(
+        table: &dyn Brdf,
+        rel_tol: f64,
+        max_coeffs: usize,
+    ) -> Result<(FittedBrdf, String)> {
+        let settings = BrdfFitSettings::default()
+            .with_rel_tol(rel_tol)?
+            .with_baselines(false)
+            .with_fit_settings(engine(max_coeffs, false)?);
+        let (f, r) = fit_brdf(table, &settings)?;
+        let d = describe(&f, &r);
+        Ok((f, d))
+    }
+
+    /// Where a perceptual fit samples its table.
+    #[derive(Clone, Copy)]
+    pub struct Grid {
+        /// 2 (the `phi_d = pi/2` slice) or 3.
+        pub dims: usize,
+        /// Bins per angle.
+        pub resolution: usize,
+        /// An elevation cut in degrees; `None`: the whole hemisphere.
+        pub cut: Option<f64>,
+    }
+
+    /// The 2-D slice or the full `(theta_h, theta_d, phi_d)` grid over the
+    /// whole hemisphere (or within the grid's elevation cut) with
+    /// perceptual intervals.
+    pub fn fit_perceptual(
+        table: &dyn Brdf,
+        grid: Grid,
+        rel_tol: f64,
+        max_coeffs: usize,
+        mode: ColourMode,
+        lobe: Option<brdf::Lobe>,
+    ) -> Result<(FittedBrdf, String)> {
+        let Grid {
+            dims,
+            resolution,
+            cut,
+        } = grid;
+        let kind = if dims == 3 {
+            ReductionKind::Full3d
+        } else {
+            ReductionKind::Slice2d
+        };
+        let reduction = Reduction::default()
+            .with_kind(kind)
+            .with_resolution(resolution, resolution)
+            .with_phi_resolution(resolution)
+            .whole_hemisphere();
+        let reduction = match cut {
+            Some(degrees) => reduction.with_max_elevation(degrees),
+            None => reduction,
+        };
+        let settings = BrdfFitSettings::default()
+            .with_reduction(reduction)
+            .with_design(PerceptualBounds::default().with_rel_tol(rel_tol)?)
+            .with_colour_mode(mode)
+            .with_lobe(lobe)
+            .with_baselines(false)
+            .with_fit_settings(engine(max_coeffs, true)?);
+        let (f, r) = fit_brdf(table, &settings)?;
+        let d = describe(&f, &r);
+        Ok((f, d))
+    }
+}
