@@ -239,6 +239,8 @@ pub(crate) fn hold_below_cap(
         Some(lobe) => cap / lobe.factors_at(coordinates.angles(x), s.colour_mode())[c],
         None => cap,
     };
+    let started = std::time::Instant::now();
+    let first_fit_s = report.seconds;
     let grid = cap_grid(data, s.reduction());
     let mut check = CapCheck {
         cap,
@@ -282,6 +284,9 @@ pub(crate) fn hold_below_cap(
         check.refits += 1;
         augmented = Some(more);
     }
+    // The channel's time: the first fit, the scans and every refit (a
+    // refit's own report times only itself).
+    report.seconds = first_fit_s + started.elapsed().as_secs_f64();
     Ok((report, check))
 }
 
