@@ -150,7 +150,11 @@ def fit_brdf(path: str, format: Optional[str] = None, **options: Any) -> FittedM
         **options: the flags of ``ratfit fit`` (see :data:`BRDF_OPTIONS`),
             with its defaults: ``dims`` (2 or 3), ``resolution``
             (theta_h, theta_d[, phi_d] bins), ``rel_tol`` (0.05),
-            ``perceptual``, ``cap_rounds`` (refits of the dense check that
+            ``perceptual``, ``max_elevation`` (degrees; default 70 for fits
+            at fixed intervals; perceptual and ``target_de`` fits cover the
+            whole hemisphere unless it is given, then fit only the cells
+            within it and evaluate beyond it at the cut),
+            ``cap_rounds`` (refits of the dense check that
             keeps every fit under 1.5x the channel's peak; default 2),
             ``colour`` ("rgb" or "luminance-chroma"),
             ``lobe`` (an analytic GGX lobe times the rational functions),

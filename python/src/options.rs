@@ -80,7 +80,9 @@ pub(crate) struct BrdfOptions {
     pub noise_floor: f64,
     pub max_coeffs: Option<usize>,
     pub max_theta_d: f64,
-    pub max_elevation: f64,
+    /// `None`: 70 degrees for fits at fixed intervals, the whole
+    /// hemisphere for perceptual and `target_de` fits.
+    pub max_elevation: Option<f64>,
     pub resolution: Option<Vec<usize>>,
     pub backend: String,
     pub poles: String,
@@ -107,7 +109,7 @@ impl Default for BrdfOptions {
             noise_floor: 1e-2,
             max_coeffs: None,
             max_theta_d: 78.0,
-            max_elevation: 70.0,
+            max_elevation: None,
             resolution: None,
             backend: "native".into(),
             poles: "grid".into(),
@@ -144,6 +146,9 @@ fn get<'a, 'py, T: pyo3::FromPyObject<'a, 'py>>(
         bad(name, format!("{shown}: {e}"))
     })
 }
+
+/// The elevation cut of fits at fixed intervals when none is given.
+const PLAIN_MAX_ELEVATION: f64 = 70.0;
 
 fn angle(name: &str, v: f64) -> PyResult<f64> {
     if v > 0.0 && v <= 90.0 {
@@ -185,7 +190,7 @@ impl BrdfOptions {
                 "noise_floor" => o.noise_floor = get(n, &v)?,
                 "max_coeffs" => o.max_coeffs = Some(get(n, &v)?),
                 "max_theta_d" => o.max_theta_d = angle(n, get(n, &v)?)?,
-                "max_elevation" => o.max_elevation = angle(n, get(n, &v)?)?,
+                "max_elevation" => o.max_elevation = Some(angle(n, get(n, &v)?)?),
                 "resolution" => {
                     let r: Vec<usize> = get(n, &v)?;
                     if !(2..=3).contains(&r.len())
@@ -311,7 +316,7 @@ impl BrdfOptions {
             .with_kind(kind)
             .with_coordinates(coords)
             .with_max_theta_d(self.max_theta_d)
-            .with_max_elevation(self.max_elevation);
+            .with_max_elevation(self.max_elevation.unwrap_or(PLAIN_MAX_ELEVATION));
         if self.target_de.is_some() {
             let three = self.dims != Some(2);
             r = r
@@ -321,6 +326,9 @@ impl BrdfOptions {
                     ReductionKind::Slice2d
                 })
                 .whole_hemisphere();
+            if let Some(degrees) = self.max_elevation {
+                r = r.with_max_elevation(degrees);
+            }
             if self.resolution.is_none() {
                 r = if three {
                     r.with_resolution(24, 24).with_phi_resolution(24)
@@ -372,7 +380,10 @@ impl BrdfOptions {
         if self.target_de.is_some() {
             s = s.with_baselines(false).with_design(design);
         } else if self.perceptual {
-            let whole = s.reduction().whole_hemisphere();
+            let mut whole = s.reduction().whole_hemisphere();
+            if let Some(degrees) = self.max_elevation {
+                whole = whole.with_max_elevation(degrees);
+            }
             let design = design
                 .with_rel_tol(self.rel_tol)
                 .map_err(|e| crate::errors::brdf_error(py, e))?;

@@ -144,3 +144,17 @@ def test_shapes_of_directions_are_checked(fitted):
         fitted.eval(np.zeros((4, 3)), np.zeros((5, 3)))
     with pytest.raises(ValueError, match="not finite"):
         fitted.eval(np.full((1, 3), np.nan), np.zeros((1, 3)))
+
+
+def test_perceptual_fits_take_an_elevation_cut_only_when_asked(military_green):
+    quick = dict(dims=2, resolution=(20, 20), rel_tol=0.16, perceptual=True,
+                 max_coeffs=40, render_check=False)
+    cuts = []
+    for extra in ({}, {"max_elevation": 75.0}):
+        f = ratfit.fit_brdf(military_green, **quick, **extra)
+        cuts.append(json.loads(f.to_json())["brdf"]["reduction"]["max_elevation_deg"])
+    # The whole hemisphere by default; the cut when given.
+    assert cuts == [90.0, 75.0]
+    # Fits at fixed intervals keep their 70-degree default.
+    plain = ratfit.fit_brdf(military_green, **SMALL, render_check=False)
+    assert json.loads(plain.to_json())["brdf"]["reduction"]["max_elevation_deg"] == 70.0

@@ -310,6 +310,12 @@ pub enum MaterialDescription {
         /// `dims` is then 3).
         #[serde(default, skip_serializing_if = "Option::is_none")]
         target_de: Option<f64>,
+        /// An elevation cut in degrees, in (0, 90]: only directions within
+        /// it are fitted, and directions beyond it are evaluated at the
+        /// cut. Default: 70 for fits at `rel_tol`; a `target_de` fit covers
+        /// the whole hemisphere unless this is given.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        max_elevation: Option<f64>,
         /// Fit the ratio of the source to a Cook-Torrance GGX lobe fitted
         /// first (lobe times rational; see `brdf::Lobe`). Default false.
         #[serde(default, skip_serializing_if = "std::ops::Not::not")]

@@ -389,6 +389,33 @@ irradiance = [1.0, 1.0, 1.0]
     }
     let (_, log) = prepare(lobe, Path::new("."), "t", &opts).unwrap();
     assert_eq!(log.find(Action::Cached, "material fit").len(), 1, "{log}");
+    // An elevation cut is another key, and the fit carries it.
+    let with_cut = |degrees: &str| {
+        SceneDescription::parse(
+            &text.replace(
+                "rel_tol = 0.1",
+                &format!("rel_tol = 0.1\nmax_elevation = {degrees}"),
+            ),
+            "t",
+        )
+        .unwrap()
+    };
+    let (scene, log) = prepare(with_cut("75.0"), Path::new("."), "t", &opts).unwrap();
+    assert_eq!(log.find(Action::Prepared, "material fit").len(), 1, "{log}");
+    match &scene.materials[0].closed_form {
+        Some(render_cpu::ClosedForm::Fit(f)) => {
+            assert_eq!(f.fit().reduction.max_elevation_deg, 75.0);
+        }
+        _ => panic!("the fitted material has no closed form"),
+    }
+    let err = prepare(with_cut("95.0"), Path::new("."), "t", &opts)
+        .err()
+        .expect("a cut beyond the horizon is refused")
+        .to_string();
+    assert!(
+        err.contains("fit") && err.contains("max_elevation"),
+        "{err}"
+    );
     // With an environment the BRDF is sampled: inverse CDFs are fitted, then cached.
     let with_env =
         format!("{text}\n[environment]\nkind = \"uniform\"\nradiance = [1.0, 1.0, 1.0]\n");

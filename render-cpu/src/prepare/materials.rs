@@ -132,6 +132,7 @@ impl MaterialBuilder<'_> {
             dims,
             max_coeffs,
             target_de,
+            max_elevation,
             lobe,
         } = desc.clone()
         else {
@@ -139,10 +140,12 @@ impl MaterialBuilder<'_> {
         };
         let start = Instant::now();
         let what = format!("material {name}");
-        // Fits without a lobe keep the keys they had before the key existed.
+        // Fits without a lobe or a cut keep the keys they had before those
+        // keys existed.
         let settings_text = format!(
-            "fitted source={source} rel_tol={rel_tol} dims={dims} max_coeffs={max_coeffs} target_de={target_de:?}{}",
-            if lobe { " lobe=ggx" } else { "" }
+            "fitted source={source} rel_tol={rel_tol} dims={dims} max_coeffs={max_coeffs} target_de={target_de:?}{}{}",
+            if lobe { " lobe=ggx" } else { "" },
+            max_elevation.map_or(String::new(), |e| format!(" max_elevation={e}"))
         );
         let fitted = match self
             .cache
@@ -160,11 +163,11 @@ impl MaterialBuilder<'_> {
                     ..
                 } = self.build(&source, log)?;
                 let dims = if target_de.is_some() { 3 } else { dims };
-                let settings = fit_settings(rel_tol, dims, max_coeffs)
+                let settings = fit_settings(rel_tol, dims, max_coeffs, max_elevation)
                     .map_err(|e| self.material_error(name, e))?
                     .with_lobe(lobe.then(|| brdf::Lobe::fit(src.as_ref())));
                 let (fitted, summary) = match target_de {
-                    Some(target) => fit_for_target(&src, target, settings)?,
+                    Some(target) => fit_for_target(&src, target, settings, max_elevation)?,
                     None => {
                         let (f, report) = brdf::fit_brdf(src.as_ref(), &settings)
                             .map_err(|e| self.material_error(name, e))?;
@@ -307,15 +310,25 @@ impl MaterialBuilder<'_> {
     }
 }
 
-/// A scene's `target_de` fit: luminance-chroma over the whole hemisphere,
-/// the 2-D slice first and a 16^3 grid when the slice cannot reach the
-/// target, validated at 64 x 64 pixels within 60 s; returns the fit and
-/// what it reached.
+/// A scene's `target_de` fit: luminance-chroma over the whole hemisphere
+/// (or within `max_elevation`), the 2-D slice first and a 16^3 grid when
+/// the slice cannot reach the target, validated at 64 x 64 pixels within
+/// 60 s; returns the fit and what it reached.
 fn fit_for_target(
     src: &Arc<dyn Brdf>,
     target: f64,
     settings: BrdfFitSettings,
+    max_elevation: Option<f64>,
 ) -> Result<(FittedBrdf, String), RenderError> {
+    let grid = Reduction::default()
+        .with_kind(ReductionKind::Full3d)
+        .with_resolution(16, 16)
+        .with_phi_resolution(16)
+        .whole_hemisphere();
+    let grid = match max_elevation {
+        Some(degrees) => grid.with_max_elevation(degrees),
+        None => grid,
+    };
     let engine = settings
         .fit_settings()
         .clone()
@@ -323,13 +336,7 @@ fn fit_for_target(
     let settings = settings
         .with_fit_settings(engine)
         .with_colour_mode(brdf::ColourMode::LuminanceChroma)
-        .with_reduction(
-            Reduction::default()
-                .with_kind(ReductionKind::Full3d)
-                .with_resolution(16, 16)
-                .with_phi_resolution(16)
-                .whole_hemisphere(),
-        );
+        .with_reduction(grid);
     let validation = crate::fidelity::ValidationSettings {
         size: 64,
         sky_spp: 32,
@@ -362,6 +369,7 @@ fn fit_settings(
     rel_tol: f64,
     dims: usize,
     max_coeffs: usize,
+    max_elevation: Option<f64>,
 ) -> Result<BrdfFitSettings, brdf::BrdfError> {
     let kind = match dims {
         2 => ReductionKind::Slice2d,
@@ -376,6 +384,15 @@ fn fit_settings(
     let mut r = Reduction::default().with_kind(kind);
     if dims == 3 {
         r = r.with_resolution(45, 45).with_phi_resolution(45);
+    }
+    if let Some(degrees) = max_elevation {
+        if !(degrees > 0.0 && degrees <= 90.0) {
+            return Err(brdf::BrdfError::Invalid {
+                name: "max_elevation",
+                reason: format!("{degrees} degrees is not in (0, 90]"),
+            });
+        }
+        r = r.with_max_elevation(degrees);
     }
     // Widening keeps a scene rendering when the intervals asked for have no
     // fit within the budget; the log names the factor.
