@@ -238,6 +238,7 @@ pub fn fit_to_json(args: &FitArgs) -> Result<serde_json::Value> {
             .with_reduction(whole)
             .with_design(brdf::PerceptualBounds::default().with_rel_tol(args.rel_tol)?);
     }
+    let mut cut_choice: Option<(String, serde_json::Value)> = None;
     let (fitted, report, render) = if args.format == "cornell" {
         let data = ScatteredBrdf::read_cornell(&args.material)?;
         let samples = data.samples(settings.reduction());
@@ -249,10 +250,20 @@ pub fn fit_to_json(args: &FitArgs) -> Result<serde_json::Value> {
         if args.lobe {
             settings = settings.with_lobe(Some(brdf::Lobe::fit(material.as_ref())));
         }
-        let (f, r) = fit_brdf(material.as_ref(), &settings)?;
+        let (mut f, r) = fit_brdf(material.as_ref(), &settings)?;
         crate::progress::finish();
         let render = if args.no_render_check {
             None
+        } else if args.perceptual && args.max_elevation.is_none() {
+            // A perceptual fit covers the whole hemisphere: the render
+            // check also chooses the cut it is evaluated within.
+            let choice = render_cpu::fidelity::render_check_choosing_cut(material.clone(), f)?;
+            f = choice.fitted.clone();
+            cut_choice = Some((
+                choice.describe(),
+                serde_json::json!({ "chosen": choice.cut, "tried": choice.tried }),
+            ));
+            Some((peak_check(material.as_ref(), &f), choice.errors))
         } else {
             Some((
                 peak_check(material.as_ref(), &f),
@@ -267,12 +278,20 @@ pub fn fit_to_json(args: &FitArgs) -> Result<serde_json::Value> {
         println!("{}", serde_json::to_string_pretty(&report)?);
     } else {
         println!("{report}");
+        if let Some((line, _)) = &cut_choice {
+            println!("{line}");
+        }
         if let (Some(p), Some(r)) = (&peak, &render) {
             println!("{}", describe_render(r));
             println!("{p}");
         }
     }
-    Ok(serde_json::json!({ "brdf": fitted, "report": report, "render": render, "peak": peak }))
+    let mut out =
+        serde_json::json!({ "brdf": fitted, "report": report, "render": render, "peak": peak });
+    if let Some((_, chosen)) = cut_choice {
+        out["evaluation_cut"] = chosen;
+    }
+    Ok(out)
 }
 
 /// The peak check of `ratfit bench fidelity` on a fit, on its grid.

@@ -856,3 +856,49 @@ fn perceptual_fits_take_an_elevation_cut_only_when_asked() {
         assert!((got - want).abs() < 1e-12, "{cut:?}: {got}");
     }
 }
+
+#[test]
+fn the_render_check_of_a_perceptual_fit_chooses_its_evaluation_cut() {
+    let dir = scratch("perceptual-cut-choice");
+    let merl = blinn_phong_merl(&dir);
+    let fit = dir.join("fit.json");
+    let out = ratfit()
+        .arg("fit")
+        .arg(&merl)
+        .args(["--format", "merl", "--perceptual", "--rel-tol", "0.2"])
+        .args(["--dims", "3", "--resolution", "8,8,8", "-o"])
+        .arg(&fit)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let line = stdout
+        .lines()
+        .find(|l| l.starts_with("evaluation cut chosen by the validation renders"))
+        .unwrap_or_else(|| panic!("no cut choice in\n{stdout}"));
+    // Four evaluations measured: none, 80, 75 and 70 degrees.
+    assert_eq!(line.matches(", ").count(), 3, "{line}");
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&fit).unwrap()).unwrap();
+    let got = json["brdf"]["reduction"]["max_elevation_deg"]
+        .as_f64()
+        .unwrap();
+    // The file holds the cut the line names.
+    let named = if got >= 90.0 {
+        "none, the whole hemisphere".to_string()
+    } else {
+        format!("{got} degrees")
+    };
+    assert!(
+        line.contains(&format!("renders: {named} (")),
+        "{got}: {line}"
+    );
+    // The file records every evaluation measured and the choice.
+    assert_eq!(json["evaluation_cut"]["tried"].as_array().unwrap().len(), 4);
+    let chosen = json["evaluation_cut"]["chosen"].as_f64().unwrap_or(90.0);
+    assert!((chosen - got).abs() < 1e-12, "{chosen} against {got}");
+}

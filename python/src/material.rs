@@ -167,13 +167,27 @@ pub fn fit_brdf(
             );
             fitted
         } else {
-            let (fitted, report) =
+            let (mut fitted, report) =
                 brdf::fit_brdf(table.as_ref(), &settings).map_err(Failure::Brdf)?;
             extra.insert(
                 "report".into(),
                 serde_json::to_value(&report).unwrap_or_default(),
             );
-            if o.render_check {
+            if o.render_check && o.perceptual && o.max_elevation.is_none() {
+                // As `ratfit fit`: the render check of a whole-hemisphere
+                // perceptual fit also chooses its evaluation cut.
+                let choice = render_cpu::fidelity::render_check_choosing_cut(table.clone(), fitted)
+                    .map_err(Failure::Render)?;
+                extra.insert(
+                    "render".into(),
+                    serde_json::to_value(&choice.errors).unwrap_or_default(),
+                );
+                extra.insert(
+                    "evaluation_cut".into(),
+                    serde_json::json!({ "chosen": choice.cut, "tried": choice.tried }),
+                );
+                fitted = choice.fitted;
+            } else if o.render_check {
                 let render = render_check(table.clone(), &fitted).map_err(Failure::Render)?;
                 extra.insert("render".into(), render);
             }

@@ -155,6 +155,13 @@ def test_perceptual_fits_take_an_elevation_cut_only_when_asked(military_green):
         cuts.append(json.loads(f.to_json())["brdf"]["reduction"]["max_elevation_deg"])
     # The whole hemisphere by default; the cut when given.
     assert cuts == [90.0, 75.0]
+    # With the render check, a whole-hemisphere fit is evaluated within the
+    # cut its renders prefer, as `ratfit fit` does.
+    checked = ratfit.fit_brdf(military_green, **dict(quick, render_check=True))
+    choice = checked.report["evaluation_cut"]
+    assert len(choice["tried"]) == 4
+    chosen = json.loads(checked.to_json())["brdf"]["reduction"]["max_elevation_deg"]
+    assert chosen == (choice["chosen"] or 90.0)
     # Fits at fixed intervals keep their 70-degree default.
     plain = ratfit.fit_brdf(military_green, **SMALL, render_check=False)
     assert json.loads(plain.to_json())["brdf"]["reduction"]["max_elevation_deg"] == 70.0

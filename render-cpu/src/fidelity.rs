@@ -28,7 +28,11 @@ use std::path::Path;
 use std::sync::Arc;
 use std::time::Instant;
 
+mod cut;
 mod target;
+pub use cut::{
+    choose_evaluation_cut, render_check_choosing_cut, CutChoice, CutTried, EVALUATION_CUTS,
+};
 pub use target::{fit_to_target, TargetAttempt, TargetReduction, TargetReport};
 
 /// The two validation scenes.

@@ -69,6 +69,13 @@ pub struct FidelityArgs {
     /// grazing cells loosely bounded.
     #[arg(long)]
     cut_3d: Option<f64>,
+    /// Elevations (degrees, in [45, 90), comma-separated) at which each 3-D
+    /// fit over the whole hemisphere is also measured evaluated within a
+    /// cut, without fitting again: directions beyond it are moved onto it
+    /// (`brdf::clamp_elevation`), so the silhouette shows the fit's value at
+    /// the cut instead of its loosely bounded grazing cells.
+    #[arg(long, value_delimiter = ',')]
+    post_cuts: Vec<f64>,
     /// Largest coefficient budget per channel.
     #[arg(long, default_value_t = 120)]
     max_coeffs: usize,
@@ -227,6 +234,9 @@ pub fn run(args: FidelityArgs) -> Result<()> {
             bail!("--cut-3d {c}: use an elevation in [45, 90) degrees");
         }
     }
+    if let Some(c) = args.post_cuts.iter().find(|c| !(45.0..90.0).contains(*c)) {
+        bail!("--post-cuts {c}: use elevations in [45, 90) degrees");
+    }
     if !(8..=1024).contains(&args.size) || !(1..=4096).contains(&args.sky_spp) {
         bail!("--size must be in 8..=1024 and --sky-spp in 1..=4096");
     }
@@ -332,6 +342,7 @@ fn settings_and_plan(args: &FidelityArgs) -> (ValidationSettings, Plan) {
         },
         resolution_3d: if args.quick { 16 } else { args.resolution_3d },
         cut_3d: args.cut_3d,
+        post_cuts: args.post_cuts.clone(),
         max_coeffs: if args.quick {
             args.max_coeffs.min(60)
         } else {
@@ -366,6 +377,24 @@ fn with_unclamped_peak(note: String, judge: &Judge, fitted: &brdf::FittedBrdf) -
     }
 }
 
+/// A 3-D fit over the whole hemisphere evaluated within each elevation of
+/// `cuts` (the same functions; only the evaluation's cut changes). Empty
+/// for other fits.
+fn post_cut_variants(fitted: &brdf::FittedBrdf, cuts: &[f64]) -> Vec<(f64, brdf::FittedBrdf)> {
+    let whole = fitted.reduction.kind == brdf::ReductionKind::Full3d
+        && fitted.reduction.max_elevation_deg >= 90.0;
+    if !whole {
+        return Vec::new();
+    }
+    cuts.iter()
+        .map(|&degrees| {
+            let mut within = fitted.clone();
+            within.reduction = within.reduction.with_max_elevation(degrees);
+            (degrees, within)
+        })
+        .collect()
+}
+
 /// Every representation of one material, measured.
 fn measure_material(judge: &Judge) -> Result<Vec<Row>> {
     let mut material_rows = Vec::new();
@@ -374,11 +403,12 @@ fn measure_material(judge: &Judge) -> Result<Vec<Row>> {
             Ok((fitted, note)) => {
                 let bytes = fitted.byte_size_f32();
                 let note = with_unclamped_peak(note, judge, &fitted);
+                let post_cut = post_cut_variants(&fitted, &judge.plan.post_cuts);
                 let candidate: Arc<dyn Brdf> = Arc::new(FitInDomain::new(fitted));
                 let row = measure(
                     judge,
                     Candidate {
-                        name,
+                        name: name.clone(),
                         brdf: candidate,
                         bytes,
                         fit_s,
@@ -386,6 +416,21 @@ fn measure_material(judge: &Judge) -> Result<Vec<Row>> {
                     },
                 )?;
                 material_rows.push(row);
+                for (degrees, within) in post_cut {
+                    let row = measure(
+                        judge,
+                        Candidate {
+                            name: format!("{name} evaluated within {degrees}"),
+                            brdf: Arc::new(FitInDomain::new(within)),
+                            bytes,
+                            fit_s,
+                            note: format!(
+                                "the fit above, directions beyond {degrees} degrees moved onto the cut"
+                            ),
+                        },
+                    )?;
+                    material_rows.push(row);
+                }
             }
             Err(e) => println!("  {name:<46} no fit: {}", crate::output::chain_text(&e)),
         }
@@ -440,4 +485,56 @@ fn measure_material(judge: &Judge) -> Result<Vec<Row>> {
         material_rows.push(row);
     }
     Ok(material_rows)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    // Exact comparisons: the same functions evaluated at the same points.
+    #[allow(clippy::float_cmp)]
+    fn post_cuts_change_the_evaluation_only_and_only_of_whole_hemisphere_3d_fits() {
+        let glossy = brdf::BlinnPhong {
+            kd: [0.2, 0.4, 0.6],
+            ks: [0.3, 0.3, 0.3],
+            exponent: 4.0,
+        };
+        let reduction = brdf::Reduction::default()
+            .with_kind(brdf::ReductionKind::Full3d)
+            .with_resolution(6, 6)
+            .with_phi_resolution(6)
+            .whole_hemisphere();
+        let settings = brdf::BrdfFitSettings::default()
+            .with_reduction(reduction)
+            .with_baselines(false);
+        let (fitted, _) = brdf::fit_brdf(&glossy, &settings).unwrap();
+        let variants = post_cut_variants(&fitted, &[70.0, 80.0]);
+        assert_eq!(variants.len(), 2);
+        let (degrees, within) = &variants[0];
+        assert_eq!(*degrees, 70.0);
+        assert_eq!(within.reduction.max_elevation_deg, 70.0);
+        assert_eq!(within.channels, fitted.channels);
+        let at = |deg: f64| {
+            let t = deg.to_radians();
+            [t.sin(), 0.0, t.cos()]
+        };
+        let view = at(10.0);
+        // Within the cut the same values; beyond it, the value at the cut.
+        assert_eq!(within.eval(at(60.0), view), fitted.eval(at(60.0), view));
+        let (beyond, on_cut) = (within.eval(at(85.0), view), fitted.eval(at(70.0), view));
+        for c in 0..3 {
+            assert!(
+                (beyond[c] - on_cut[c]).abs() <= 1e-12 * on_cut[c].abs(),
+                "{c}"
+            );
+        }
+        let unclamped = fitted.eval(at(85.0), view);
+        assert!(
+            (0..3).any(|c| (unclamped[c] - on_cut[c]).abs() > 1e-9),
+            "the cut must matter here"
+        );
+        // A fit that already has a cut (or is 2-D) has no variants.
+        assert!(post_cut_variants(&variants[1].1, &[70.0]).is_empty());
+    }
 }

@@ -16,6 +16,7 @@ pub(super) struct Plan {
     pub(super) tols: Vec<f64>,
     pub(super) resolution_3d: usize,
     pub(super) cut_3d: Option<f64>,
+    pub(super) post_cuts: Vec<f64>,
     pub(super) max_coeffs: usize,
     pub(super) hemisphere: HemisphereSettings,
 }

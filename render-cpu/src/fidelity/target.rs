@@ -1,7 +1,9 @@
 //! [`fit_to_target`]: the smallest perceptual fit whose validation renders
 //! reach a mean CIEDE2000.
 
-use super::{RenderErrors, SceneError, ValidationScene, ValidationSettings, Validator};
+use super::{
+    choose_evaluation_cut, RenderErrors, SceneError, ValidationScene, ValidationSettings, Validator,
+};
 use crate::RenderError;
 use brdf::Brdf;
 use serde::Serialize;
@@ -31,6 +33,10 @@ pub struct TargetAttempt {
     pub result: Option<(usize, f64)>,
     /// The largest factor a channel's intervals were widened by (1: none).
     pub widened: f64,
+    /// The evaluation cut chosen for this fit by the validation renders
+    /// (degrees; `None`: the whole hemisphere). See
+    /// [`super::choose_evaluation_cut`].
+    pub cut: Option<f64>,
 }
 
 /// What [`fit_to_target`] reached.
@@ -48,6 +54,9 @@ pub struct TargetReport {
     pub rel_tol: f64,
     /// Bytes of the chosen fit (f32).
     pub bytes: usize,
+    /// The evaluation cut chosen by the validation renders for a fit over
+    /// the whole hemisphere (degrees; `None`: none).
+    pub evaluation_cut: Option<f64>,
     /// Its render errors, lights first.
     pub scenes: Vec<SceneError>,
     /// The table against itself with another seed (noise of the comparison).
@@ -74,6 +83,12 @@ impl std::fmt::Display for TargetReport {
             self.bytes
         )?;
         writeln!(f, "  {}", self.why)?;
+        if let Some(c) = self.evaluation_cut {
+            writeln!(
+                f,
+                "  evaluated within {c} degrees of the normal (directions beyond moved onto the cut; chosen by the validation renders)"
+            )?;
+        }
         for (k, scene) in ValidationScene::ALL.iter().enumerate() {
             writeln!(
                 f,
@@ -88,14 +103,16 @@ impl std::fmt::Display for TargetReport {
             match a.result {
                 Some((bytes, worst)) => writeln!(
                     f,
-                    "  tried {}-D +-{}%{}: {bytes} bytes, worse mean CIEDE2000 {worst:.3}",
+                    "  tried {}-D +-{}%{}: {bytes} bytes, worse mean CIEDE2000 {worst:.3}{}",
                     a.dims,
                     a.rel_tol * 100.0,
                     if a.widened > 1.0 {
                         format!(" (widened x{})", a.widened)
                     } else {
                         String::new()
-                    }
+                    },
+                    a.cut
+                        .map_or(String::new(), |c| format!(" evaluated within {c} degrees"))
                 )?,
                 None => writeln!(
                     f,
@@ -111,7 +128,8 @@ impl std::fmt::Display for TargetReport {
 
 /// The best fit of one reduction and every attempt.
 struct Search {
-    best: Option<(brdf::FittedBrdf, RenderErrors, f64)>,
+    /// The fit, its errors, its tolerance and the evaluation cut chosen.
+    best: Option<(brdf::FittedBrdf, RenderErrors, f64, Option<f64>)>,
     tried: Vec<TargetAttempt>,
 }
 
@@ -189,6 +207,7 @@ fn search_tolerances(
                     rel_tol: t,
                     result: None,
                     widened: 1.0,
+                    cut: None,
                 });
                 if search.best.is_none() && !loosened {
                     // Even the loosest is infeasible: loosen instead.
@@ -210,16 +229,19 @@ fn search_tolerances(
             }
         };
         let errors = validator.measure(Arc::new(crate::scene::FitInDomain::new(fitted.clone())))?;
+        let choice = choose_evaluation_cut(validator, fitted, errors)?;
+        let (fitted, errors) = (choice.fitted, choice.errors);
         let worst = errors.worst_mean();
         search.tried.push(TargetAttempt {
             dims,
             rel_tol: t,
             result: Some((fitted.byte_size_f32(), worst)),
             widened,
+            cut: choice.cut,
         });
         let reached = worst <= target_de;
         if reached || worst < search.worst() {
-            search.best = Some((fitted, errors, t));
+            search.best = Some((fitted, errors, t, choice.cut));
         }
         let at_floor = stop_at_floor && worst > 0.9 * previous;
         previous = previous.min(worst);
@@ -323,7 +345,7 @@ pub fn fit_to_target(
         (_, Some(f)) => f,
         (None, None) => unreachable!("one reduction is always searched"),
     };
-    let Some((fitted, errors, rel_tol)) = chosen.best else {
+    let Some((fitted, errors, rel_tol, evaluation_cut)) = chosen.best else {
         return Err(crate::error::invalid(
             "target_de",
             format!(
@@ -340,6 +362,7 @@ pub fn fit_to_target(
         why,
         rel_tol,
         bytes: fitted.byte_size_f32(),
+        evaluation_cut,
         scenes: errors.scenes.clone(),
         noise: validator.noise.clone(),
         tried,
