@@ -121,6 +121,19 @@ impl FittedBrdf {
         Ok(())
     }
 
+    /// The same functions and bytes evaluated within `degrees` of the
+    /// normal: directions beyond are moved onto the cut
+    /// ([`crate::clamp_elevation`]), as for a fit made within it. `None`
+    /// for a fit that already has a cut, or `degrees` outside `(0, 90)`.
+    pub fn evaluated_within(&self, degrees: f64) -> Option<FittedBrdf> {
+        if self.reduction.max_elevation_deg < 90.0 || !(degrees > 0.0 && degrees < 90.0) {
+            return None;
+        }
+        let mut within = self.clone();
+        within.reduction = within.reduction.with_max_elevation(degrees);
+        Some(within)
+    }
+
     /// RGB from the three functions' values: the colour mode's combination
     /// (negative values set to zero), then the ceiling.
     pub fn finish(&self, v: [f64; 3]) -> [f64; 3] {

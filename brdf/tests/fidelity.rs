@@ -10,6 +10,8 @@ use brdf::{
 use rational_core::{FitSettings, Search};
 
 #[test]
+// The evaluation within a cut must be the same computation, bit for bit.
+#[allow(clippy::float_cmp)]
 fn every_representation_is_bounded_on_the_whole_hemisphere() {
     let truth = BlinnPhong {
         kd: [0.3, 0.2, 0.1],
@@ -51,6 +53,24 @@ fn every_representation_is_bounded_on_the_whole_hemisphere() {
     }
     // Every cell of the grid up to the horizon was constrained.
     assert!((fitted.reduction.max_elevation_deg - 90.0).abs() < 1e-12);
+    // Evaluated within 70 degrees: the same functions, directions beyond
+    // the cut moved onto it; a fit with a cut has no other.
+    let within = fitted.evaluated_within(70.0).unwrap();
+    assert!(within.evaluated_within(60.0).is_none());
+    assert!(fitted.evaluated_within(90.0).is_none() && fitted.evaluated_within(0.0).is_none());
+    let direction = |theta: f64, phi: f64| {
+        let (t, p) = (theta.to_radians(), phi.to_radians());
+        [t.sin() * p.cos(), t.sin() * p.sin(), t.cos()]
+    };
+    let (inside, grazing) = (direction(30.0, 10.0), direction(85.0, 200.0));
+    assert_eq!(
+        within.eval(inside, direction(50.0, 140.0)),
+        fitted.eval(inside, direction(50.0, 140.0))
+    );
+    let (sin_cut, cos_cut) = 70f64.to_radians().sin_cos();
+    let onto_cut = brdf::clamp_elevation(grazing, cos_cut, sin_cut);
+    assert_eq!(within.eval(grazing, inside), fitted.eval(onto_cut, inside));
+    assert_ne!(within.eval(grazing, inside), fitted.eval(grazing, inside));
     // Lobe times rational in luminance-chroma: the lobe grows to
     // 1 / (pi alpha^4) at grazing mirror pairs, which the ratio's cap
     // (the table's cap divided by the lobe) must undo.

@@ -381,17 +381,11 @@ fn with_unclamped_peak(note: String, judge: &Judge, fitted: &brdf::FittedBrdf) -
 /// `cuts` (the same functions; only the evaluation's cut changes). Empty
 /// for other fits.
 fn post_cut_variants(fitted: &brdf::FittedBrdf, cuts: &[f64]) -> Vec<(f64, brdf::FittedBrdf)> {
-    let whole = fitted.reduction.kind == brdf::ReductionKind::Full3d
-        && fitted.reduction.max_elevation_deg >= 90.0;
-    if !whole {
+    if fitted.reduction.kind != brdf::ReductionKind::Full3d {
         return Vec::new();
     }
     cuts.iter()
-        .map(|&degrees| {
-            let mut within = fitted.clone();
-            within.reduction = within.reduction.with_max_elevation(degrees);
-            (degrees, within)
-        })
+        .filter_map(|&degrees| Some((degrees, fitted.evaluated_within(degrees)?)))
         .collect()
 }
 

@@ -87,24 +87,24 @@ pub fn choose_evaluation_cut(
         errors,
         tried: Vec::new(),
     };
-    if best.fitted.reduction.max_elevation_deg >= 90.0 {
-        for degrees in EVALUATION_CUTS {
-            let mut within = best.fitted.clone();
-            within.reduction = within.reduction.with_max_elevation(degrees);
-            let errors = validator.measure(Arc::new(crate::FitInDomain::new(within.clone())))?;
-            let worst = errors.worst_mean();
-            tried.push(CutTried {
+    let variants: Vec<(f64, FittedBrdf)> = EVALUATION_CUTS
+        .iter()
+        .filter_map(|&degrees| Some((degrees, best.fitted.evaluated_within(degrees)?)))
+        .collect();
+    for (degrees, within) in variants {
+        let errors = validator.measure(Arc::new(crate::FitInDomain::new(within.clone())))?;
+        let worst = errors.worst_mean();
+        tried.push(CutTried {
+            cut: Some(degrees),
+            worst_mean_de: worst,
+        });
+        if worst < best.errors.worst_mean() {
+            best = CutChoice {
+                fitted: within,
                 cut: Some(degrees),
-                worst_mean_de: worst,
-            });
-            if worst < best.errors.worst_mean() {
-                best = CutChoice {
-                    fitted: within,
-                    cut: Some(degrees),
-                    errors,
-                    tried: Vec::new(),
-                };
-            }
+                errors,
+                tried: Vec::new(),
+            };
         }
     }
     best.tried = tried;

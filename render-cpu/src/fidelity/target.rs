@@ -253,8 +253,11 @@ fn search_tolerances(
     Ok(search)
 }
 
-/// The smallest perceptual fit (whole hemisphere) whose validation renders
-/// reach mean CIEDE2000 `<= target_de` on both scenes. Tolerances from
+/// The smallest perceptual fit whose validation renders reach mean
+/// CIEDE2000 `<= target_de` on both scenes. The fits cover the whole
+/// hemisphere unless `base` has an elevation cut; each whole-hemisphere
+/// fit is judged at the evaluation cut its renders prefer
+/// ([`super::choose_evaluation_cut`]). Tolerances from
 /// `+-16%` down to `+-2%` are tried in turn (looser intervals give fewer
 /// coefficients, usually), stopping at the first that reaches the target
 /// or when `budget_s` is spent (checked between fits, so the last fit may
