@@ -150,6 +150,105 @@ pub fn grid_size(samples: usize, dim: usize, requested: usize) -> usize {
     ((4.0 * per_dim).ceil() as usize).clamp(64.min(cap), cap.max(2))
 }
 
+/// Largest dense coefficient tensor (`prod (degree_k + 1)` entries) that
+/// [`grid_check`] contracts; beyond it each grid point sums the terms.
+const MAX_DENSE_TENSOR: usize = 1 << 20;
+
+/// Univariate values of each axis at the grid's points: `tables[k][i * w_k +
+/// a]` is `phi_a(t_i)` on axis `k`, for the `w_k` degrees `q` uses there.
+fn axis_tables(basis: &Basis, widths: &[usize], per_dim: usize) -> Vec<Vec<f64>> {
+    widths
+        .iter()
+        .map(|&m| {
+            let mut t = vec![0.0; per_dim * m];
+            for (i, row) in t.chunks_exact_mut(m).enumerate() {
+                basis.family().values(grid_t(i, per_dim), row, None);
+            }
+            t
+        })
+        .collect()
+}
+
+/// Mapped coordinate of grid index `i` of `per_dim` points on `[-1, 1]`.
+fn grid_t(i: usize, per_dim: usize) -> f64 {
+    -1.0 + 2.0 * i as f64 / (per_dim - 1).max(1) as f64
+}
+
+/// `q = sum b_j phi_j` at every point of the tensor grid (axis 0 fastest),
+/// by contracting one axis at a time: the coefficient tensor's axis `k`
+/// (its `w_k` degrees) becomes the grid's `per_dim` points, which costs
+/// about `per_dim^d w_0` products in all instead of `per_dim^d n_q d`.
+fn grid_values_contracted(
+    basis: &Basis,
+    b: &[f64],
+    widths: &[usize],
+    tables: &[Vec<f64>],
+    per_dim: usize,
+) -> Vec<f64> {
+    let d = widths.len();
+    let mut shape = widths.to_vec();
+    let mut tensor = vec![0.0; widths.iter().product()];
+    for (j, &bj) in b.iter().enumerate() {
+        let idx = basis.multi_index(j);
+        let (mut at, mut stride) = (0, 1);
+        for k in 0..d {
+            at += idx[k] as usize * stride;
+            stride *= widths[k];
+        }
+        tensor[at] += bj;
+    }
+    for k in (0..d).rev() {
+        let inner: usize = shape[..k].iter().product();
+        let outer: usize = shape[k + 1..].iter().product();
+        let w = shape[k];
+        let table = &tables[k];
+        let mut next = vec![0.0; inner * per_dim * outer];
+        for o in 0..outer {
+            let src = &tensor[o * inner * w..(o + 1) * inner * w];
+            let dst = &mut next[o * inner * per_dim..(o + 1) * inner * per_dim];
+            for (i, out) in dst.chunks_exact_mut(inner).enumerate() {
+                let row = &table[i * w..(i + 1) * w];
+                for (c, &phi) in row.iter().enumerate() {
+                    for (y, &x) in out.iter_mut().zip(&src[c * inner..(c + 1) * inner]) {
+                        *y += phi * x;
+                    }
+                }
+            }
+        }
+        shape[k] = per_dim;
+        tensor = next;
+    }
+    tensor
+}
+
+/// `q` at grid point `id` (axis 0 fastest), summing its terms: the
+/// fallback when the dense coefficient tensor would be too large.
+fn grid_value_direct(
+    basis: &Basis,
+    b: &[f64],
+    widths: &[usize],
+    tables: &[Vec<f64>],
+    per_dim: usize,
+    at: &mut [usize],
+    id: usize,
+) -> f64 {
+    let mut rest = id;
+    for slot in at.iter_mut() {
+        *slot = rest % per_dim;
+        rest /= per_dim;
+    }
+    let mut q = 0.0;
+    for (j, bj) in b.iter().enumerate() {
+        let idx = basis.multi_index(j);
+        let mut v = 1.0;
+        for k in 0..at.len() {
+            v *= tables[k][at[k] * widths[k] + idx[k] as usize];
+        }
+        q += v * bj;
+    }
+    q
+}
+
 /// Minimum of `q` over a tensor grid on `[-1, 1]^d` (mapped coordinates),
 /// and up to `keep` grid points (original coordinates) where `q <= 0`.
 pub fn grid_check(basis: &Basis, b: &[f64], per_dim: usize, keep: usize) -> (f64, Vec<Vec<f64>>) {
@@ -157,56 +256,29 @@ pub fn grid_check(basis: &Basis, b: &[f64], per_dim: usize, keep: usize) -> (f64
     let d = basis.dim();
     let total = per_dim.pow(d as u32);
     let dom = basis.domain();
-    let grid_t = |i: usize| -1.0 + 2.0 * i as f64 / (per_dim - 1).max(1) as f64;
     // The grid is a tensor product: the univariate values of each axis are
-    // computed once, and each grid point only multiplies table entries.
+    // computed once.
     let widths: Vec<usize> = (0..d).map(|k| basis.degree_in(k, b.len()) + 1).collect();
-    let tables: Vec<Vec<f64>> = widths
-        .iter()
-        .map(|&m| {
-            let mut t = vec![0.0; per_dim * m];
-            for (i, row) in t.chunks_exact_mut(m).enumerate() {
-                basis.family().values(grid_t(i), row, None);
-            }
-            t
-        })
-        .collect();
-    let q_at = |at: &mut Vec<usize>, id: usize| -> f64 {
-        let mut rest = id;
-        for slot in at.iter_mut() {
-            *slot = rest % per_dim;
-            rest /= per_dim;
-        }
-        let mut q = 0.0;
-        for (j, bj) in b.iter().enumerate() {
-            let idx = basis.multi_index(j);
-            let mut v = 1.0;
-            for k in 0..d {
-                v *= tables[k][at[k] * widths[k] + idx[k] as usize];
-            }
-            q += v * bj;
-        }
-        q
+    let tables = axis_tables(basis, &widths, per_dim);
+    let dense: usize = widths.iter().product();
+    let values: Vec<f64> = if dense <= MAX_DENSE_TENSOR {
+        grid_values_contracted(basis, b, &widths, &tables, per_dim)
+    } else {
+        (0..total)
+            .into_par_iter()
+            .map_init(
+                || vec![0usize; d],
+                |at, id| grid_value_direct(basis, b, &widths, &tables, per_dim, at, id),
+            )
+            .collect()
     };
-    let (min, mut bad) = (0..total)
-        .into_par_iter()
-        .map_init(|| vec![0usize; d], |at, id| (q_at(at, id), id))
-        .fold(
-            || (f64::INFINITY, Vec::new()),
-            |(m, mut bad), (q, id)| {
-                if q <= 0.0 {
-                    bad.push((q, id));
-                }
-                (m.min(q), bad)
-            },
-        )
-        .reduce(
-            || (f64::INFINITY, Vec::new()),
-            |(m1, mut b1), (m2, b2)| {
-                b1.extend(b2);
-                (m1.min(m2), b1)
-            },
-        );
+    let min = values.iter().copied().fold(f64::INFINITY, f64::min);
+    let mut bad: Vec<(f64, usize)> = values
+        .iter()
+        .enumerate()
+        .filter(|(_, &q)| q <= 0.0)
+        .map(|(id, &q)| (q, id))
+        .collect();
     bad.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
     let pts = bad
         .into_iter()
@@ -214,7 +286,7 @@ pub fn grid_check(basis: &Basis, b: &[f64], per_dim: usize, keep: usize) -> (f64
         .map(|(_, mut id)| {
             (0..d)
                 .map(|k| {
-                    let t = grid_t(id % per_dim);
+                    let t = grid_t(id % per_dim, per_dim);
                     id /= per_dim;
                     dom.lower[k] + 0.5 * (t + 1.0) * (dom.upper[k] - dom.lower[k])
                 })
@@ -277,6 +349,57 @@ mod tests {
             let x = [u, -2.0 + 4.0 * v];
             let direct = basis.combine(&b, &x);
             assert!((s - direct).abs() < 1e-12, "{family}: {s} vs {direct}");
+        }
+    }
+
+    #[test]
+    fn the_contracted_grid_matches_summing_every_term_at_every_point() {
+        // A 3-D denominator with a sign change, in each family and with
+        // weighted degrees (unequal widths per axis).
+        let dom = Domain::new(vec![0.0, -1.0, 2.0], vec![1.0, 3.0, 2.5]).unwrap();
+        for family in [
+            BasisFamily::Monomial,
+            BasisFamily::Chebyshev,
+            BasisFamily::Legendre,
+        ] {
+            for weights in [vec![1, 1, 1], vec![1, 2, 3]] {
+                let basis = Basis::weighted(family, dom.clone(), 35, &weights).unwrap();
+                let b: Vec<f64> = (0..35)
+                    .map(|j| ((j as f64 * 0.618_034).fract() - 0.45) / (1.0 + j as f64))
+                    .collect();
+                let per_dim = 9;
+                let d = 3;
+                let widths: Vec<usize> = (0..d).map(|k| basis.degree_in(k, b.len()) + 1).collect();
+                let tables = axis_tables(&basis, &widths, per_dim);
+                let contracted = grid_values_contracted(&basis, &b, &widths, &tables, per_dim);
+                let mut at = vec![0; d];
+                for (id, &q) in contracted.iter().enumerate() {
+                    let direct =
+                        grid_value_direct(&basis, &b, &widths, &tables, per_dim, &mut at, id);
+                    // And through the basis in original coordinates.
+                    let x: Vec<f64> = (0..d)
+                        .map(|k| {
+                            let t = grid_t(at[k], per_dim);
+                            dom.lower[k] + 0.5 * (t + 1.0) * (dom.upper[k] - dom.lower[k])
+                        })
+                        .collect();
+                    let combined = basis.combine(&b, &x);
+                    assert!((q - direct).abs() <= 1e-12, "{family} {weights:?} {id}");
+                    assert!((q - combined).abs() <= 1e-12, "{family} {weights:?} {id}");
+                }
+                let (min, pts) = grid_check(&basis, &b, per_dim, 1000);
+                let smallest = contracted.iter().copied().fold(f64::INFINITY, f64::min);
+                assert!((min - smallest).abs() <= 0.0, "{min} {smallest}");
+                assert!(
+                    min < 0.0,
+                    "{family} {weights:?}: the test wants a sign change"
+                );
+                let negative = contracted.iter().filter(|&&q| q <= 0.0).count();
+                assert_eq!(pts.len(), negative);
+                for p in &pts {
+                    assert!(basis.combine(&b, p) <= 1e-12);
+                }
+            }
         }
     }
 
