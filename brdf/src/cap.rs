@@ -218,6 +218,29 @@ fn with_cap_points(
     IntervalData::new(data.dim(), all, lo, hi)?.with_values(values)
 }
 
+/// Fits `more` (the data with cap points) again, widening nothing. The
+/// added constraints only shrink the feasible set, so the smallest budget
+/// cannot fall below `budget`: that budget alone first (under
+/// condition-number selection its splits are solved in order of condition
+/// number until one holds, `rational_core::Search`), then the larger ones.
+fn refit(more: &IntervalData, s: &BrdfFitSettings, budget: usize) -> Result<FitReport, FitError> {
+    let (_, max_coeffs) = s.fit_settings().coeff_range();
+    let budget = budget.min(max_coeffs);
+    let within = |lo: usize| {
+        s.fit_settings()
+            .clone()
+            .with_coeff_range(lo, max_coeffs)
+            .and_then(|f| f.with_widening(2.0, 0))
+    };
+    let at_budget = within(budget)?.with_coeff_range(budget, budget)?;
+    match fit(more, &at_budget) {
+        Err(FitError::NoFeasibleFit { .. }) if budget < max_coeffs => {
+            fit(more, &within(budget + 1)?)
+        }
+        other => other,
+    }
+}
+
 /// The dense cap check ([`BrdfFitSettings::with_cap_rounds`]): between the
 /// samples nothing bounds `p / q`, so the fit is evaluated on a grid of its
 /// whole evaluation domain twice as dense as the data; the points above
@@ -263,16 +286,7 @@ pub(crate) fn hold_below_cap(
         }
         let so_far = augmented.as_ref().or(accepted.as_ref()).unwrap_or(data);
         let more = with_cap_points(so_far, scan.points, &scan.caps)?;
-        // The added constraints only shrink the feasible set: the smallest
-        // budget cannot fall, so the search starts at this one.
-        let budget = report.n_p + report.n_q;
-        let (_, max_coeffs) = s.fit_settings().coeff_range();
-        let warm = s
-            .fit_settings()
-            .clone()
-            .with_coeff_range(budget.min(max_coeffs), max_coeffs)?
-            .with_widening(2.0, 0)?;
-        match fit(&more, &warm) {
+        match refit(&more, s, report.n_p + report.n_q) {
             Ok(r) => {
                 report = r;
                 report.interval_scale = scale;

@@ -35,9 +35,6 @@ pub struct SplitFit {
     pub verification: Option<Verification>,
     /// Pole figures of the accepted function.
     pub poles: PoleReport,
-    /// The rows added to the split's problem (extra and pole rows), to
-    /// rebuild it for its condition number.
-    added_rows: Vec<Vec<f64>>,
 }
 
 /// Everything the splits of a sweep share.
@@ -220,7 +217,6 @@ impl<'a> Prepared<'a> {
                 function: None,
                 verification: None,
                 poles,
-                added_rows: rows,
             });
         }
         // Each exit of the loop names the outcome; the timing and the result
@@ -293,7 +289,14 @@ impl<'a> Prepared<'a> {
             }
             summary.accepted = true;
             if want_condition {
-                summary.condition_number = Some(condition_number(&problem));
+                // Of the rows before any pole rows: every split is judged
+                // on the same rows.
+                let k = if summary.pole_rounds == 0 {
+                    condition_number(&problem)
+                } else {
+                    condition_number(&self.problem(data, n_p, n_q, &self.base_rows(n_p, n_q))?)
+                };
+                summary.condition_number = Some(k);
             }
             break (Some(f), Some(ver));
         };
@@ -303,7 +306,6 @@ impl<'a> Prepared<'a> {
             function,
             verification,
             poles,
-            added_rows: rows,
         })
     }
 
@@ -322,7 +324,7 @@ impl<'a> Prepared<'a> {
                 continue;
             }
             let (n_p, n_q) = (fit.summary.n_p, fit.summary.n_q);
-            let problem = self.problem(data, n_p, n_q, &fit.added_rows)?;
+            let problem = self.problem(data, n_p, n_q, &self.base_rows(n_p, n_q))?;
             let k = condition_number(&problem);
             fit.summary.condition_number = Some(k);
             if let Some(s) = summaries
@@ -591,7 +593,11 @@ pub(crate) fn sweep(
     let mut current = data.clone();
     let mut summaries = Vec::new();
     for widenings in 0..=settings.max_widenings {
+        let single_budget = settings.min_coeffs == max_n;
         let mut candidates = match settings.search {
+            Search::Exhaustive | Search::Staircase if want_condition && single_budget => {
+                by_condition(&prep, &current, max_n, &mut summaries)?
+            }
             Search::Exhaustive => exhaustive(&prep, &current, max_n, &mut summaries)?,
             Search::Staircase => staircase(&prep, &current, max_n, &mut summaries)?,
             Search::Probe => probing(&prep, &current, max_n, &mut summaries)?,
@@ -700,6 +706,47 @@ fn solve_budget(
         .collect::<Result<_, _>>()?;
     summaries.extend(fits.iter().map(|f| f.summary.clone()));
     Ok(fits)
+}
+
+/// The splits of the single budget `n` in increasing condition number
+/// (computed in parallel, a blocked QR each, on the rows before any pole
+/// rows as [`Selection::ConditionNumber`] defines it), solved one after
+/// another until one is accepted: the split that the selection would
+/// choose among all the accepted ones, without solving every feasible
+/// split to its optimum (ties go to the smaller `n_q`, as in the searches'
+/// order).
+fn by_condition(
+    prep: &Prepared<'_>,
+    data: &IntervalData,
+    n: usize,
+    summaries: &mut Vec<SplitSummary>,
+) -> Result<Vec<SplitFit>, FitError> {
+    let mut order: Vec<(f64, usize)> = (1..n)
+        .into_par_iter()
+        .map(|n_q| {
+            let n_p = n - n_q;
+            let problem = prep.problem(data, n_p, n_q, &prep.base_rows(n_p, n_q))?;
+            let k = condition_number(&problem);
+            Ok((if k.is_nan() { f64::INFINITY } else { k }, n_q))
+        })
+        .collect::<Result<_, FitError>>()?;
+    order.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let mut active = Vec::new();
+    for (done, &(_, n_q)) in order.iter().enumerate() {
+        let f = prep.solve(data, n - n_q, n_q, false, &mut active)?;
+        summaries.push(f.summary.clone());
+        if let Some(cb) = &prep.settings.progress {
+            cb(Progress {
+                budget: n,
+                done: done + 1,
+                total: order.len(),
+            });
+        }
+        if f.summary.accepted {
+            return Ok(vec![f]);
+        }
+    }
+    Ok(Vec::new())
 }
 
 /// The probe splits of budget `n` ([`crate::PROBE_FRACTIONS`]).

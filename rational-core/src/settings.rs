@@ -12,7 +12,9 @@ use std::sync::Arc;
 #[non_exhaustive]
 pub enum Selection {
     /// Lowest 2-norm condition number of the normalised constraint matrix
-    /// `G` (the paper's criterion).
+    /// `G` (the paper's criterion), of the data's rows and any extra rows,
+    /// before the rows the pole check adds: every split is judged on the
+    /// same rows.
     #[default]
     ConditionNumber,
     /// Largest depth (smallest normalised margin of `G c`, over `||c||`):
@@ -35,6 +37,12 @@ impl std::str::FromStr for Selection {
 }
 
 /// How the sweep visits the splits `(n_p, n_q)`.
+///
+/// A single budget (equal smallest and largest coefficient counts) under
+/// [`Selection::ConditionNumber`] is searched alike by `Exhaustive` and
+/// `Staircase`: its splits in increasing condition number, the first
+/// accepted kept, which is the split the selection would choose among
+/// every accepted one, without solving each to its optimum.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
 #[serde(rename_all = "snake_case")]
 #[non_exhaustive]

@@ -197,3 +197,56 @@ fn probing_doubles_then_bisects_the_budget_over_five_splits_each() {
     );
     assert!(probe.splits_tried < all.splits_tried);
 }
+
+#[test]
+fn a_single_budget_keeps_the_best_conditioned_accepted_split_without_solving_them_all() {
+    let cases: Vec<(&str, IntervalData)> = vec![
+        (
+            "runge 1%",
+            grid_1d(400, |x| 1.0 / (1.0 + 25.0 * (2.0 * x - 1.0).powi(2)), 0.01),
+        ),
+        (
+            "2-d lobe 5%",
+            grid_2d(30, |x, y| 0.1 + (1.0 + y) / (0.02 + x * x), 0.05),
+        ),
+    ];
+    for (name, data) in &cases {
+        let smallest = fit(
+            data,
+            &FitSettings::default()
+                .with_coeff_range(2, 40)
+                .unwrap()
+                .with_search(Search::Staircase),
+        )
+        .unwrap();
+        // A few coefficients above the smallest budget: several splits hold.
+        let n = smallest.n_p + smallest.n_q + 4;
+        let fitter = rational_core::Fitter::new(data);
+        let accepted: Vec<(f64, (usize, usize))> = (1..n)
+            .filter_map(|n_q| {
+                let s = fitter.split(n - n_q, n_q).ok()?;
+                s.summary
+                    .accepted
+                    .then(|| (s.summary.condition_number.unwrap(), (n - n_q, n_q)))
+            })
+            .collect();
+        assert!(accepted.len() >= 3, "{name}: {accepted:?}");
+        let best = accepted
+            .iter()
+            .min_by(|a, b| a.0.total_cmp(&b.0))
+            .unwrap()
+            .1;
+        for search in [Search::Staircase, Search::Exhaustive] {
+            let settings = FitSettings::default()
+                .with_coeff_range(n, n)
+                .unwrap()
+                .with_search(search);
+            let r = fit(data, &settings).unwrap();
+            assert_eq!((r.n_p, r.n_q), best, "{name} {search:?}");
+            assert!(r.verification.satisfied);
+            let solved_accepted = r.splits.iter().filter(|s| s.accepted).count();
+            assert_eq!(solved_accepted, 1, "{name} {search:?}: stops at the first");
+            assert!(r.splits_tried < n - 1 || accepted.len() == 1, "{name}");
+        }
+    }
+}
