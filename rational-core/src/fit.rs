@@ -289,14 +289,12 @@ impl<'a> Prepared<'a> {
             }
             summary.accepted = true;
             if want_condition {
-                // Of the rows before any pole rows: every split is judged
-                // on the same rows.
-                let k = if summary.pole_rounds == 0 {
-                    condition_number(&problem)
-                } else {
-                    condition_number(&self.problem(data, n_p, n_q, &self.base_rows(n_p, n_q))?)
-                };
-                summary.condition_number = Some(k);
+                summary.condition_number = Some(self.condition_before_poles(
+                    &problem,
+                    data,
+                    (n_p, n_q),
+                    summary.pole_rounds,
+                )?);
             }
             break (Some(f), Some(ver));
         };
@@ -307,6 +305,23 @@ impl<'a> Prepared<'a> {
             verification,
             poles,
         })
+    }
+
+    /// The condition number [`Selection::ConditionNumber`] compares: of
+    /// the split's rows before any pole rows (every split is judged on the
+    /// same rows), so of `problem` itself when no pole rounds added rows.
+    fn condition_before_poles(
+        &self,
+        problem: &LdpProblem,
+        data: &IntervalData,
+        (n_p, n_q): (usize, usize),
+        pole_rounds: usize,
+    ) -> Result<f64, FitError> {
+        if pole_rounds == 0 {
+            return Ok(condition_number(problem));
+        }
+        let base = self.problem(data, n_p, n_q, &self.base_rows(n_p, n_q))?;
+        Ok(condition_number(&base))
     }
 
     /// The condition number of every accepted split of `candidates` that
