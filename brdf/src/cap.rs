@@ -6,7 +6,7 @@
 use crate::fitting::BrdfFitSettings;
 use crate::geometry::HalfDiff;
 use crate::reduce::{Reduction, HORIZON_INSET_RAD};
-use rational_core::{fit, FitError, FitReport, IntervalData, RationalFunction};
+use rational_core::{fit, FitError, FitReport, Fitter, IntervalData, RationalFunction};
 use serde::{Deserialize, Serialize};
 use std::fmt;
 
@@ -220,24 +220,33 @@ fn with_cap_points(
 
 /// Fits `more` (the data with cap points) again, widening nothing. The
 /// added constraints only shrink the feasible set, so the smallest budget
-/// cannot fall below `budget`: that budget alone first (under
+/// cannot fall below the previous fit's. When the previous split still
+/// holds, that budget is the smallest, and it alone is searched (under
 /// condition-number selection its splits are solved in order of condition
-/// number until one holds, `rational_core::Search`), then the larger ones.
-fn refit(more: &IntervalData, s: &BrdfFitSettings, budget: usize) -> Result<FitReport, FitError> {
+/// number until one holds, `rational_core::Search`); otherwise the search
+/// runs from that budget up, without first solving every split of a budget
+/// that may hold none.
+fn refit(
+    more: &IntervalData,
+    s: &BrdfFitSettings,
+    (n_p, n_q): (usize, usize),
+) -> Result<FitReport, FitError> {
     let (_, max_coeffs) = s.fit_settings().coeff_range();
-    let budget = budget.min(max_coeffs);
-    let within = |lo: usize| {
-        s.fit_settings()
-            .clone()
-            .with_coeff_range(lo, max_coeffs)
-            .and_then(|f| f.with_widening(2.0, 0))
-    };
-    let at_budget = within(budget)?.with_coeff_range(budget, budget)?;
-    match fit(more, &at_budget) {
-        Err(FitError::NoFeasibleFit { .. }) if budget < max_coeffs => {
-            fit(more, &within(budget + 1)?)
-        }
-        other => other,
+    let budget = (n_p + n_q).min(max_coeffs);
+    let from_budget = s
+        .fit_settings()
+        .clone()
+        .with_coeff_range(budget, max_coeffs)?
+        .with_widening(2.0, 0)?;
+    let still_holds = Fitter::new(more)
+        .settings(from_budget.clone())
+        .split(n_p, n_q)?
+        .summary
+        .accepted;
+    if still_holds {
+        fit(more, &from_budget.with_coeff_range(budget, budget)?)
+    } else {
+        fit(more, &from_budget)
     }
 }
 
@@ -286,7 +295,7 @@ pub(crate) fn hold_below_cap(
         }
         let so_far = augmented.as_ref().or(accepted.as_ref()).unwrap_or(data);
         let more = with_cap_points(so_far, scan.points, &scan.caps)?;
-        match refit(&more, s, report.n_p + report.n_q) {
+        match refit(&more, s, (report.n_p, report.n_q)) {
             Ok(r) => {
                 report = r;
                 report.interval_scale = scale;
