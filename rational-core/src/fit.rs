@@ -741,14 +741,19 @@ fn by_condition(
         .map(|n_q| {
             let n_p = n - n_q;
             let problem = prep.problem(data, n_p, n_q, &prep.base_rows(n_p, n_q))?;
-            let k = condition_number(&problem);
-            Ok((if k.is_nan() { f64::INFINITY } else { k }, n_q))
+            Ok((condition_number(&problem), n_q))
         })
         .collect::<Result<_, FitError>>()?;
-    order.sort_by(|a, b| a.0.total_cmp(&b.0));
+    // NaN (a failed factorisation) last, as the selection ranks it.
+    let rank = |k: f64| if k.is_nan() { f64::INFINITY } else { k };
+    order.sort_by(|a, b| rank(a.0).total_cmp(&rank(b.0)));
     let mut active = Vec::new();
-    for (done, &(_, n_q)) in order.iter().enumerate() {
-        let f = prep.solve(data, n - n_q, n_q, false, &mut active)?;
+    for (done, &(k, n_q)) in order.iter().enumerate() {
+        let mut f = prep.solve(data, n - n_q, n_q, false, &mut active)?;
+        if f.summary.accepted {
+            // The selection's figure, already computed for the order.
+            f.summary.condition_number = Some(k);
+        }
         summaries.push(f.summary.clone());
         if let Some(cb) = &prep.settings.progress {
             cb(Progress {
