@@ -6,7 +6,7 @@
 use crate::fitting::BrdfFitSettings;
 use crate::geometry::HalfDiff;
 use crate::reduce::{Reduction, HORIZON_INSET_RAD};
-use rational_core::{fit, FitError, FitReport, Fitter, IntervalData, RationalFunction};
+use rational_core::{FitError, FitReport, Fitter, IntervalData, RationalFunction};
 use serde::{Deserialize, Serialize};
 use std::fmt;
 
@@ -220,16 +220,20 @@ fn with_cap_points(
 
 /// Fits `more` (the data with cap points) again, widening nothing. The
 /// added constraints only shrink the feasible set, so the smallest budget
-/// cannot fall below the previous fit's. When the previous split still
-/// holds, that budget is the smallest, and it alone is searched (under
-/// condition-number selection its splits are solved in order of condition
-/// number until one holds, `rational_core::Search`); otherwise the search
-/// runs from that budget up, without first solving every split of a budget
-/// that may hold none.
+/// cannot fall below the previous fit's, and a split proved infeasible
+/// before (`known`, the fits before on fewer rows at the same intervals)
+/// is infeasible still and is not solved again. When the previous split
+/// still holds, that budget is the smallest, and it alone is searched
+/// (under condition-number selection its splits are solved in order of
+/// condition number until one holds, `rational_core::Search`); otherwise
+/// the search runs from that budget up, without first solving every split
+/// of a budget that may hold none. Splits proved infeasible here are added
+/// to `known`.
 fn refit(
     more: &IntervalData,
     s: &BrdfFitSettings,
     (n_p, n_q): (usize, usize),
+    known: &mut Vec<(usize, usize)>,
 ) -> Result<FitReport, FitError> {
     let (_, max_coeffs) = s.fit_settings().coeff_range();
     let budget = (n_p + n_q).min(max_coeffs);
@@ -238,16 +242,33 @@ fn refit(
         .clone()
         .with_coeff_range(budget, max_coeffs)?
         .with_widening(2.0, 0)?;
-    let still_holds = Fitter::new(more)
+    let previous = Fitter::new(more)
         .settings(from_budget.clone())
         .split(n_p, n_q)?
-        .summary
-        .accepted;
-    if still_holds {
-        fit(more, &from_budget.with_coeff_range(budget, budget)?)
-    } else {
-        fit(more, &from_budget)
+        .summary;
+    if previous.proved_infeasible() {
+        known.push((n_p, n_q));
     }
+    let settings = if previous.accepted {
+        from_budget.with_coeff_range(budget, budget)?
+    } else {
+        from_budget
+    };
+    let result = Fitter::new(more)
+        .settings(settings)
+        .known_infeasible(known)
+        .fit();
+    match &result {
+        Ok(r) => known.extend(r.proved_infeasible()),
+        Err(FitError::NoFeasibleFit { splits, .. }) => known.extend(
+            splits
+                .iter()
+                .filter(|x| x.proved_infeasible())
+                .map(|x| (x.n_p, x.n_q)),
+        ),
+        Err(_) => {}
+    }
+    result
 }
 
 /// The dense cap check ([`BrdfFitSettings::with_cap_rounds`]): between the
@@ -286,6 +307,8 @@ pub(crate) fn hold_below_cap(
     let scale = report.interval_scale;
     let accepted = (scale > 1.0).then(|| data.widened(scale));
     let mut augmented: Option<IntervalData> = None;
+    // Infeasible at these intervals on fewer rows: infeasible in every refit.
+    let mut known = report.proved_infeasible();
     loop {
         let scan = points_above_cap(&grid, &report.function, &cap_at);
         check.largest = scan.largest;
@@ -295,7 +318,7 @@ pub(crate) fn hold_below_cap(
         }
         let so_far = augmented.as_ref().or(accepted.as_ref()).unwrap_or(data);
         let more = with_cap_points(so_far, scan.points, &scan.caps)?;
-        match refit(&more, s, (report.n_p, report.n_q)) {
+        match refit(&more, s, (report.n_p, report.n_q), &mut known) {
             Ok(r) => {
                 report = r;
                 report.interval_scale = scale;

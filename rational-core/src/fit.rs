@@ -592,7 +592,39 @@ pub(crate) fn split_problem(
 /// # Errors
 /// As [`crate::Fitter::fit`].
 pub fn fit(data: &IntervalData, settings: &FitSettings) -> Result<FitReport, FitError> {
-    sweep(data, settings, &NoExtraConstraints)
+    sweep(
+        data,
+        settings,
+        &NoExtraConstraints,
+        &KnownInfeasible::default(),
+    )
+}
+
+/// Splits known infeasible before a sweep starts
+/// ([`crate::Fitter::known_infeasible`]): for each `n_q`, the largest `n_p`
+/// proved infeasible, so every smaller `n_p` is too (nested bases: a
+/// numerator of fewer coefficients is one of more with zeros).
+#[derive(Debug, Clone, Default)]
+pub(crate) struct KnownInfeasible {
+    up_to: Vec<usize>,
+}
+
+impl KnownInfeasible {
+    pub(crate) fn new(splits: &[(usize, usize)]) -> Self {
+        let mut up_to = Vec::new();
+        for &(n_p, n_q) in splits {
+            if up_to.len() <= n_q {
+                up_to.resize(n_q + 1, 0);
+            }
+            up_to[n_q] = up_to[n_q].max(n_p);
+        }
+        Self { up_to }
+    }
+
+    /// The largest `n_p` known infeasible with `n_q` (0: none).
+    fn up_to(&self, n_q: usize) -> usize {
+        self.up_to.get(n_q).copied().unwrap_or(0)
+    }
 }
 
 /// [`crate::Fitter::fit`].
@@ -600,6 +632,7 @@ pub(crate) fn sweep(
     data: &IntervalData,
     settings: &FitSettings,
     extra: &dyn ExtraConstraints,
+    known: &KnownInfeasible,
 ) -> Result<FitReport, FitError> {
     let start = Instant::now();
     let max_n = check_sizes(data, settings)?;
@@ -607,18 +640,29 @@ pub(crate) fn sweep(
     let want_condition = settings.selection == Selection::ConditionNumber;
     let mut current = data.clone();
     let mut summaries = Vec::new();
+    let nothing_known = KnownInfeasible::default();
     for widenings in 0..=settings.max_widenings {
         let single_budget = settings.min_coeffs == max_n;
+        // What was proved at the given intervals says nothing of wider ones.
+        let known = if widenings == 0 {
+            known
+        } else {
+            &nothing_known
+        };
+        let first = summaries.len();
         let mut candidates = match settings.search {
             Search::Exhaustive | Search::Staircase if want_condition && single_budget => {
-                by_condition(&prep, &current, max_n, &mut summaries)?
+                by_condition(&prep, &current, max_n, known, &mut summaries)?
             }
             Search::Exhaustive => exhaustive(&prep, &current, max_n, &mut summaries)?,
-            Search::Staircase => staircase(&prep, &current, max_n, &mut summaries)?,
+            Search::Staircase => staircase(&prep, &current, max_n, known, &mut summaries)?,
             Search::Probe => probing(&prep, &current, max_n, &mut summaries)?,
         };
         if want_condition {
             prep.condition_numbers(&current, &mut candidates, &mut summaries)?;
+        }
+        for s in &mut summaries[first..] {
+            s.widenings = widenings;
         }
         if let Some(best) = select(candidates, settings.selection) {
             let function = best.function.expect("accepted splits carry a function");
@@ -734,10 +778,12 @@ fn by_condition(
     prep: &Prepared<'_>,
     data: &IntervalData,
     n: usize,
+    known: &KnownInfeasible,
     summaries: &mut Vec<SplitSummary>,
 ) -> Result<Vec<SplitFit>, FitError> {
     let mut order: Vec<(f64, usize)> = (1..n)
         .into_par_iter()
+        .filter(|&n_q| n - n_q > known.up_to(n_q))
         .map(|n_q| {
             let n_p = n - n_q;
             let problem = prep.problem(data, n_p, n_q, &prep.base_rows(n_p, n_q))?;
@@ -828,12 +874,13 @@ fn staircase(
     prep: &Prepared<'_>,
     data: &IntervalData,
     max_n: usize,
+    known: &KnownInfeasible,
     summaries: &mut Vec<SplitSummary>,
 ) -> Result<Vec<SplitFit>, FitError> {
     let mut limit = (2 * prep.settings.min_coeffs).max(8).min(max_n);
     let mut infeasible_up_to = 0;
     loop {
-        let found = staircase_within(prep, data, limit, infeasible_up_to, summaries)?;
+        let found = staircase_within(prep, data, limit, infeasible_up_to, known, summaries)?;
         if !found.is_empty() || limit == max_n {
             return Ok(found);
         }
@@ -843,7 +890,8 @@ fn staircase(
 }
 
 /// One staircase walk over the splits with `n_p + n_q <= limit`, knowing
-/// those with `n_p + n_q <= infeasible_up_to` infeasible: for `n_q = 1, 2,
+/// those with `n_p + n_q <= infeasible_up_to` infeasible, and those of
+/// `known`: for `n_q = 1, 2,
 /// ...` the smallest accepted `n_p` by bisection, below both the previous
 /// column's (nested bases) and the best budget so far.
 fn staircase_within(
@@ -851,6 +899,7 @@ fn staircase_within(
     data: &IntervalData,
     limit: usize,
     infeasible_up_to: usize,
+    known: &KnownInfeasible,
     summaries: &mut Vec<SplitSummary>,
 ) -> Result<Vec<SplitFit>, FitError> {
     let settings = prep.settings;
@@ -882,7 +931,7 @@ fn staircase_within(
             .min_coeffs
             .max(infeasible_up_to + 1)
             .saturating_sub(nq)
-            .max(1);
+            .max(known.up_to(nq) + 1);
         if hi < lo {
             continue;
         }

@@ -2,7 +2,7 @@
 //! coefficient budgets, at a single split, or to see the program a split
 //! solves.
 
-use crate::fit::{solve_split, split_problem, sweep, SplitFit};
+use crate::fit::{solve_split, split_problem, sweep, KnownInfeasible, SplitFit};
 use crate::problem::{ExtraConstraints, NoExtraConstraints};
 use crate::{FitError, FitReport, FitSettings, IntervalData, Search};
 use qp_backends::LdpProblem;
@@ -30,6 +30,7 @@ pub struct Fitter<'a> {
     data: &'a IntervalData,
     settings: FitSettings,
     extra: &'a dyn ExtraConstraints,
+    known: KnownInfeasible,
 }
 
 impl<'a> Fitter<'a> {
@@ -39,6 +40,7 @@ impl<'a> Fitter<'a> {
             data,
             settings: FitSettings::default(),
             extra: &NoExtraConstraints,
+            known: KnownInfeasible::default(),
         }
     }
 
@@ -63,6 +65,18 @@ impl<'a> Fitter<'a> {
         self
     }
 
+    /// Splits `(n_p, n_q)` already proved infeasible on some of these
+    /// rows at these intervals or narrower ([`FitReport::proved_infeasible`]
+    /// of a fit of the same data before rows were added): the staircase
+    /// and the single-budget condition order do not solve them again, nor
+    /// a split of the same `n_q` with a smaller `n_p` (nested bases).
+    /// Wider intervals forget them: a widening can make them feasible.
+    /// The sweep returns what it would without them, sooner.
+    pub fn known_infeasible(mut self, splits: &[(usize, usize)]) -> Self {
+        self.known = KnownInfeasible::new(splits);
+        self
+    }
+
     /// The settings in use.
     pub fn current_settings(&self) -> &FitSettings {
         &self.settings
@@ -78,7 +92,7 @@ impl<'a> Fitter<'a> {
     /// Invalid data or settings, too few samples, backend errors, or
     /// [`FitError::NoFeasibleFit`] with every split tried.
     pub fn fit(&self) -> Result<FitReport, FitError> {
-        sweep(self.data, &self.settings, self.extra)
+        sweep(self.data, &self.settings, self.extra, &self.known)
     }
 
     /// The single split P(n_p, n_q), accepted or not (no sweep, no

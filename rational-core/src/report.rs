@@ -35,6 +35,9 @@ pub struct SplitSummary {
     /// Re-solves with rows from [`crate::ExtraConstraints::refine`].
     #[serde(default)]
     pub refine_rounds: usize,
+    /// Interval widenings in force when it was solved (the sweep's count).
+    #[serde(default)]
+    pub widenings: usize,
 }
 
 impl SplitSummary {
@@ -52,7 +55,15 @@ impl SplitSummary {
             iterations: 0,
             pole_rounds: 0,
             refine_rounds: 0,
+            widenings: 0,
         }
+    }
+
+    /// Proved infeasible by the backend on the data's own rows (no pole or
+    /// refinement rows were added): every program with these rows and more,
+    /// at these intervals or narrower, is infeasible too.
+    pub fn proved_infeasible(&self) -> bool {
+        self.status == Status::Infeasible && self.pole_rounds == 0 && self.refine_rounds == 0
     }
 }
 
@@ -105,6 +116,21 @@ pub struct FitReport {
     pub search: Search,
     /// Every split solved, in order.
     pub splits: Vec<SplitSummary>,
+}
+
+impl FitReport {
+    /// The splits `(n_p, n_q)` this sweep proved infeasible
+    /// ([`SplitSummary::proved_infeasible`]) at the intervals of the fit
+    /// it returned (the widening it was accepted at): what
+    /// [`crate::Fitter::known_infeasible`] takes for a refit of the same
+    /// data with rows added.
+    pub fn proved_infeasible(&self) -> Vec<(usize, usize)> {
+        self.splits
+            .iter()
+            .filter(|s| s.widenings == self.widenings && s.proved_infeasible())
+            .map(|s| (s.n_p, s.n_q))
+            .collect()
+    }
 }
 
 impl fmt::Display for FitReport {

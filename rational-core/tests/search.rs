@@ -250,3 +250,77 @@ fn a_single_budget_keeps_the_best_conditioned_accepted_split_without_solving_the
         }
     }
 }
+
+/// The staircase's cases that need a budget of ten or more.
+fn larger_cases() -> Vec<(&'static str, IntervalData)> {
+    vec![
+        (
+            "faster oscillation 1e-4",
+            grid_1d(500, |x| (25.0 * x).sin() + 1.5, 1e-4),
+        ),
+        (
+            "2-d lobe 5%",
+            grid_2d(30, |x, y| 0.1 + (1.0 + y) / (0.02 + x * x), 0.05),
+        ),
+    ]
+}
+
+#[test]
+fn splits_known_infeasible_are_not_solved_again_and_change_nothing() {
+    let settings = FitSettings::default()
+        .with_coeff_range(2, 40)
+        .unwrap()
+        .with_search(Search::Staircase);
+    for (name, data) in larger_cases() {
+        let first = rational_core::Fitter::new(&data)
+            .settings(settings.clone())
+            .fit()
+            .unwrap();
+        let known = first.proved_infeasible();
+        assert!(
+            !known.is_empty(),
+            "{name}: the walk proves some splits infeasible"
+        );
+        // The same data with every fifth interval halved: more rows' worth
+        // of constraint, so what was infeasible stays infeasible.
+        let (mut lo, mut hi) = (data.lo().to_vec(), data.hi().to_vec());
+        for k in (0..data.len()).step_by(5) {
+            let (c, h) = (0.5 * (lo[k] + hi[k]), 0.25 * (hi[k] - lo[k]));
+            (lo[k], hi[k]) = (c - h, c + h);
+        }
+        let tighter = IntervalData::new(data.dim(), data.points().to_vec(), lo, hi).unwrap();
+        let fitter = rational_core::Fitter::new(&tighter).settings(settings.clone());
+        let plain = fitter.fit().unwrap();
+        let informed = rational_core::Fitter::new(&tighter)
+            .settings(settings.clone())
+            .known_infeasible(&known)
+            .fit()
+            .unwrap();
+        assert_eq!(
+            (informed.n_p, informed.n_q),
+            (plain.n_p, plain.n_q),
+            "{name}"
+        );
+        assert_eq!(
+            accepted_at_budget(&informed),
+            accepted_at_budget(&plain),
+            "{name}"
+        );
+        assert!(
+            informed.splits_tried < plain.splits_tried,
+            "{name}: fewer solves"
+        );
+        let known_up_to = |n_q: usize| {
+            known
+                .iter()
+                .filter(|s| s.1 == n_q)
+                .map(|s| s.0)
+                .max()
+                .unwrap_or(0)
+        };
+        assert!(
+            informed.splits.iter().all(|s| s.n_p > known_up_to(s.n_q)),
+            "{name}: a known split, or one below it, was solved"
+        );
+    }
+}
