@@ -150,6 +150,11 @@ fn decades(values: impl Iterator<Item = f64>) -> (i32, i32) {
 const PANEL_W: u32 = 380;
 const PANEL_H: u32 = 280;
 const HEADER: u32 = 56;
+/// Height of each legend line after the first.
+const LEGEND_LINE: u32 = 18;
+/// Width of a legend character at the legend's 12-pixel font (an upper
+/// estimate: the layout must be known before a backend exists).
+const LEGEND_CHAR_W: i32 = 7;
 
 /// A decade's label: `1e-3`, `1e2`.
 fn decade_label(v: &f64) -> String {
@@ -165,7 +170,41 @@ impl Figure {
     /// Width and height in pixels.
     pub fn size(&self) -> (u32, u32) {
         let (rows, cols) = self.grid();
-        (cols as u32 * PANEL_W, HEADER + rows as u32 * PANEL_H)
+        (cols as u32 * PANEL_W, self.header() + rows as u32 * PANEL_H)
+    }
+
+    /// The legend's entries (the Pareto note last, where there is a front)
+    /// laid out left to right and wrapped at the figure's width: per entry,
+    /// its line and its x.
+    fn legend_layout(&self) -> Vec<(String, Option<usize>, u32, i32)> {
+        let width = (self.grid().1 as u32 * PANEL_W) as i32;
+        let mut entries: Vec<(String, Option<usize>)> = self
+            .legend
+            .iter()
+            .enumerate()
+            .map(|(k, name)| (name.clone(), Some(k)))
+            .collect();
+        if self.panels.iter().any(|p| !p.front.is_empty()) {
+            entries.push(("black rings and line: Pareto front".into(), None));
+        }
+        let (mut line, mut x) = (0u32, 10i32);
+        let mut out = Vec::with_capacity(entries.len());
+        for (name, k) in entries {
+            let w = 24 + LEGEND_CHAR_W * name.chars().count() as i32;
+            if x > 10 && x + w > width {
+                line += 1;
+                x = 10;
+            }
+            out.push((name, k, line, x));
+            x += w;
+        }
+        out
+    }
+
+    /// Height of the title and legend.
+    fn header(&self) -> u32 {
+        let lines = self.legend_layout().last().map_or(0, |e| e.2);
+        HEADER + lines * LEGEND_LINE
     }
 
     /// The figure as SVG.
@@ -186,31 +225,21 @@ impl Figure {
 
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<()> {
         root.fill(&WHITE).map_err(plot_error)?;
-        let (header, body) = root.split_vertically(HEADER);
+        let (header, body) = root.split_vertically(self.header());
         header
             .draw(&Text::new(self.title.clone(), (10, 6), (FAMILY, 16)))
             .map_err(plot_error)?;
         let style = TextStyle::from((FAMILY, 12));
-        let mut x = 10;
-        for (k, name) in self.legend.iter().enumerate() {
+        for (name, k, line, x) in self.legend_layout() {
+            let y = 40 + (line * LEGEND_LINE) as i32;
+            if let Some(k) = k {
+                header
+                    .draw(&Circle::new((x + 4, y), 4, colour(k).filled()))
+                    .map_err(plot_error)?;
+            }
+            let text_x = if k.is_some() { x + 12 } else { x };
             header
-                .draw(&Circle::new((x + 4, 40), 4, colour(k).filled()))
-                .map_err(plot_error)?;
-            header
-                .draw(&Text::new(name.clone(), (x + 12, 33), style.clone()))
-                .map_err(plot_error)?;
-            let (w, _) = header
-                .estimate_text_size(name, &style)
-                .map_err(plot_error)?;
-            x += 24 + w as i32;
-        }
-        if self.panels.iter().any(|p| !p.front.is_empty()) {
-            header
-                .draw(&Text::new(
-                    "black rings and line: Pareto front",
-                    (x + 10, 33),
-                    style.clone(),
-                ))
+                .draw(&Text::new(name, (text_x, y - 7), style.clone()))
                 .map_err(plot_error)?;
         }
         let areas = body.split_evenly(self.grid());
@@ -328,6 +357,25 @@ mod tests {
         assert_eq!(s.matches("<circle").count(), 2 + 2 + 2, "{s}");
         assert!(s.contains("t &lt;1&gt;"), "{s}");
         assert!(s.contains(">\n1e-2\n<"), "decade labels: {s}");
+    }
+
+    #[test]
+    fn a_long_legend_wraps_within_the_figure_and_makes_it_taller() {
+        let mut long = two_series();
+        long.legend = (0..8)
+            .map(|k| format!("rational 3-D luminance-chroma {k}%"))
+            .collect();
+        let (width, _) = long.size();
+        let layout = long.legend_layout();
+        assert_eq!(layout.len(), 8 + 1, "eight series and the front's note");
+        assert!(layout.last().unwrap().2 >= 2, "{layout:?}");
+        for (name, _, _, x) in &layout {
+            let w = 24 + LEGEND_CHAR_W * name.chars().count() as i32;
+            assert!(x + w <= width as i32, "{name} at {x} overflows {width}");
+        }
+        assert!(long.size().1 > two_series().size().1);
+        assert_eq!(two_series().legend_layout().last().unwrap().2, 0);
+        assert!(long.svg().unwrap().matches("<circle").count() >= 8);
     }
 
     #[test]

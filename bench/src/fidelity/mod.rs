@@ -1,8 +1,9 @@
 //! `ratfit bench fidelity`: every representation of every material judged by
 //! its renders. For each material: the table rendered on the two validation
 //! scenes, then each representation (rational modes, Cook-Torrance GGX
-//! fitted to the whole material, the table downsampled to the same bytes)
-//! measured by mean and 99th-percentile CIEDE2000 over the object's pixels,
+//! fitted to the whole material, the table downsampled to the same bytes,
+//! and the table kept at the 3-D fits' own grid, which shows what that
+//! sampling alone loses) measured by mean and 99th-percentile CIEDE2000 over the object's pixels,
 //! BRDF-space relative error by elevation band over the whole hemisphere,
 //! and the largest value anywhere against the table's peak. Writes
 //! `results.csv`, `summary.md`, `de_vs_bytes.svg`/`.png` (the Pareto front
@@ -463,22 +464,47 @@ fn measure_material(judge: &Judge) -> Result<Vec<Row>> {
     grids.sort_by_key(|b| (b[0] * b[1] * b[2], *b));
     grids.dedup();
     for bins in grids {
-        let t1 = Instant::now();
-        let down = DownsampledTable::new(judge.table, bins);
-        let size = down.byte_size_f32();
-        let row = measure(
-            judge,
-            Candidate {
-                name: format!("table downsampled to {size} B"),
-                brdf: Arc::new(down),
-                bytes: size,
-                fit_s: t1.elapsed().as_secs_f64(),
-                note: format!("{}x{}x{} cells", bins[0], bins[1], bins[2]),
-            },
-        )?;
-        material_rows.push(row);
+        material_rows.push(measure_table(judge, bins, |size| {
+            (
+                format!("table downsampled to {size} B"),
+                format!("{}x{}x{} cells", bins[0], bins[1], bins[2]),
+            )
+        })?);
     }
+    // The table kept at the 3-D fits' own grid (cell averages, interpolated
+    // like the peer above): what the sampling alone loses, before any fit.
+    let n = judge.plan.resolution_3d;
+    material_rows.push(measure_table(judge, [n, n, n], |size| {
+        (
+            format!("table on the 3-D fits' grid ({size} B)"),
+            format!("{n}x{n}x{n} cells: the resolution the 3-D fits sample"),
+        )
+    })?);
     Ok(material_rows)
+}
+
+/// The table averaged over a `bins` grid, measured; `describe` names the
+/// row and its note from the grid's bytes.
+fn measure_table(
+    judge: &Judge,
+    bins: [usize; 3],
+    describe: impl FnOnce(usize) -> (String, String),
+) -> Result<Row> {
+    let start = Instant::now();
+    let table = DownsampledTable::new(judge.table, bins);
+    let bytes = table.byte_size_f32();
+    let fit_s = start.elapsed().as_secs_f64();
+    let (name, note) = describe(bytes);
+    measure(
+        judge,
+        Candidate {
+            name,
+            brdf: Arc::new(table),
+            bytes,
+            fit_s,
+            note,
+        },
+    )
 }
 
 #[cfg(test)]

@@ -121,8 +121,10 @@ pub(super) fn write_outputs(
     let series = |name: &str| -> String {
         if name.starts_with("rational") {
             name.to_string()
-        } else if name.starts_with("table") {
+        } else if name.starts_with("table downsampled") {
             "table downsampled".into()
+        } else if name.starts_with("table on") {
+            "table on the 3-D fits' grid".into()
         } else {
             name.to_string()
         }
@@ -262,8 +264,16 @@ pub(super) fn check(out: &Path, rows: &[Row], noise: &[(String, Vec<f64>)]) -> V
         {
             problems.push(format!("{m}: no rational representation was measured"));
         }
-        if !reps.iter().any(|r| r.representation.starts_with("table")) {
-            problems.push(format!("{m}: no downsampled table was measured"));
+        for (prefix, what) in [
+            ("table downsampled", "no downsampled table was measured"),
+            (
+                "table on",
+                "the table on the 3-D fits' grid was not measured",
+            ),
+        ] {
+            if !reps.iter().any(|r| r.representation.starts_with(prefix)) {
+                problems.push(format!("{m}: {what}"));
+            }
         }
         for scene in ValidationScene::ALL {
             if !out
