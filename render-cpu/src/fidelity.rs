@@ -33,7 +33,7 @@ mod target;
 pub use cut::{
     choose_evaluation_cut, render_check_choosing_cut, CutChoice, CutTried, EVALUATION_CUTS,
 };
-pub use target::{fit_to_target, TargetAttempt, TargetReduction, TargetReport};
+pub use target::{fit_to_target, GridFloor, TargetAttempt, TargetReduction, TargetReport};
 
 /// The two validation scenes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]

@@ -66,3 +66,63 @@ fn a_target_de_scene_renders_a_glossy_rgl_file() {
         .iter()
         .all(|p| p.iter().all(|v| v.is_finite())));
 }
+
+/// A target below what the 3-D grid keeps is reported as such: the report
+/// gives the table's own error on that grid, and only when the target is
+/// missed.
+#[test]
+fn a_missed_target_reports_what_the_grid_itself_renders_at() {
+    use brdf::{BlinnPhong, BrdfFitSettings, PerceptualBounds, Reduction, ReductionKind};
+    use render_cpu::fidelity::{fit_to_target, TargetReduction, ValidationSettings};
+    use std::sync::Arc;
+    let glossy: Arc<dyn brdf::Brdf> = Arc::new(BlinnPhong {
+        kd: [0.2, 0.3, 0.1],
+        ks: [0.3, 0.3, 0.3],
+        exponent: 30.0,
+    });
+    let reduction = Reduction::default()
+        .with_kind(ReductionKind::Full3d)
+        .with_resolution(5, 5)
+        .with_phi_resolution(4)
+        .whole_hemisphere();
+    let settings = BrdfFitSettings::default()
+        .with_reduction(reduction)
+        .with_baselines(false)
+        .with_design(PerceptualBounds::default())
+        .with_fit_settings(
+            rational_core::FitSettings::default()
+                .with_coeff_range(2, 30)
+                .unwrap(),
+        );
+    let validation = ValidationSettings {
+        size: 16,
+        lights_spp: 1,
+        sky_spp: 4,
+        seed: 1,
+    };
+    let run = |target: f64| {
+        fit_to_target(
+            glossy.clone(),
+            target,
+            &settings,
+            TargetReduction::Fixed,
+            validation,
+            60.0,
+        )
+        .unwrap()
+        .1
+    };
+    let missed = run(1e-3);
+    assert!(!missed.reached);
+    let floor = missed
+        .grid_floor
+        .expect("a missed 3-D target gives the grid's error");
+    assert_eq!(floor.bins, [5, 5, 4]);
+    assert!(
+        floor.worst_mean_de.is_finite() && floor.worst_mean_de > 1e-3,
+        "{floor:?}"
+    );
+    assert!(missed.to_string().contains("5 x 5 x 4 grid"), "{missed}");
+    let reached = run(1e3);
+    assert!(reached.reached && reached.grid_floor.is_none());
+}
