@@ -3,11 +3,12 @@
 //! scenes, then each representation (rational modes, Cook-Torrance GGX
 //! fitted to the whole material, the table downsampled to the same bytes,
 //! and the table kept at the 3-D fits' own grid, which shows what that
-//! sampling alone loses) measured by mean and 99th-percentile CIEDE2000 over the object's pixels,
-//! BRDF-space relative error by elevation band over the whole hemisphere,
-//! and the largest value anywhere against the table's peak. Writes
-//! `results.csv`, `summary.md`, `de_vs_bytes.svg`/`.png` (the Pareto front
-//! ringed) and table / representation / difference images, then checks them.
+//! sampling alone loses) measured by mean and 99th-percentile CIEDE2000
+//! over the object's pixels, BRDF-space relative error by elevation band
+//! over the whole hemisphere, and the largest value anywhere against the
+//! table's peak. Writes `results.csv`, `summary.md`, `de_vs_bytes.svg`/`.png`
+//! (the Pareto front ringed) and table / representation / difference
+//! images, then checks them.
 
 use super::instances::data_dir;
 use anyhow::{bail, Context, Result};
