@@ -5,6 +5,7 @@ use crate::colour::ColourMode;
 use crate::geometry::{HalfDiff, Vec3};
 use crate::lobe::Lobe;
 use crate::reduce::Reduction;
+use crate::shell::ShellFactor;
 use crate::{Brdf, BrdfError};
 use rational_core::RationalFunction;
 use rayon::prelude::*;
@@ -37,6 +38,10 @@ pub struct FittedBrdf {
     /// where it is not, or between the check's grid points.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub ceiling: Option<[f64; 3]>,
+    /// The tabulated factor beyond the elevation cut, when there is one
+    /// ([`ShellFactor`]; its cut is the reduction's).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub shell: Option<ShellFactor>,
     /// Source material.
     pub name: String,
 }
@@ -59,6 +64,8 @@ struct FittedSpec {
     lobe: Option<Lobe>,
     #[serde(default)]
     ceiling: Option<[f64; 3]>,
+    #[serde(default)]
+    shell: Option<ShellFactor>,
     name: String,
 }
 
@@ -71,6 +78,7 @@ impl TryFrom<FittedSpec> for FittedBrdf {
             mode: s.mode,
             lobe: s.lobe,
             ceiling: s.ceiling,
+            shell: s.shell,
             name: s.name,
         };
         f.validate()?;
@@ -118,7 +126,27 @@ impl FittedBrdf {
                 )));
             }
         }
+        if let Some(shell) = &self.shell {
+            shell.validate()?;
+            let cut = self.reduction.max_elevation_deg;
+            if (shell.cut_deg - cut).abs() > 1e-9 {
+                return Err(bad(format!(
+                    "the shell factor's cut of {} degrees is not the reduction's elevation cut ({cut} degrees)",
+                    shell.cut_deg
+                )));
+            }
+        }
         Ok(())
+    }
+
+    /// The fit with `shell` applied beyond its elevation cut.
+    ///
+    /// # Errors
+    /// As [`FittedBrdf::validate`]: the shell's cut must be the reduction's.
+    pub fn with_shell(mut self, shell: ShellFactor) -> Result<Self, BrdfError> {
+        self.shell = Some(shell);
+        self.validate()?;
+        Ok(self)
     }
 
     /// The same functions and bytes evaluated within `degrees` of the
@@ -202,13 +230,15 @@ impl FittedBrdf {
             .sum::<usize>()
             + if self.lobe.is_some() { 28 } else { 0 }
             + if self.ceiling.is_some() { 12 } else { 0 }
+            + self.shell.as_ref().map_or(0, ShellFactor::byte_size_f32)
     }
 }
 
 impl Brdf for FittedBrdf {
     /// The fit at `(wi, wo)`; beyond an elevation cut of the reduction,
     /// directions are moved to the cut ([`crate::clamp_elevation`]), where
-    /// the fit was constrained.
+    /// the fit was constrained, and the shell factor, when there is one,
+    /// multiplies the value there.
     fn eval(&self, wi: Vec3, wo: Vec3) -> [f64; 3] {
         if wi[2] <= 0.0 || wo[2] <= 0.0 {
             return [0.0; 3];
@@ -216,11 +246,18 @@ impl Brdf for FittedBrdf {
         let cut = self.reduction.max_elevation_deg;
         if cut < 90.0 {
             let (sin_cut, cos_cut) = cut.to_radians().sin_cos();
-            let (wi, wo) = (
+            let (wi_cut, wo_cut) = (
                 crate::geometry::clamp_elevation(wi, cos_cut, sin_cut),
                 crate::geometry::clamp_elevation(wo, cos_cut, sin_cut),
             );
-            return self.finish(self.functions_at(wi, wo));
+            let v = self.functions_at(wi_cut, wo_cut);
+            return self.finish(match &self.shell {
+                Some(shell) => {
+                    let k = ShellFactor::factors_for(shell.factor(wi, wo), self.mode);
+                    [v[0] * k[0], v[1] * k[1], v[2] * k[2]]
+                }
+                None => v,
+            });
         }
         self.finish(self.functions_at(wi, wo))
     }

@@ -407,6 +407,7 @@ fn assemble(
         mode: settings.mode,
         lobe: settings.lobe,
         ceiling: ceiling(peaks, settings, &reports),
+        shell: None,
         name: name.to_string(),
     };
     // Errors over every valid sample above the floor, grazing ones included.

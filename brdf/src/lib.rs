@@ -40,6 +40,7 @@ pub mod lab;
 mod lobe;
 mod material;
 mod reduce;
+mod shell;
 
 pub use analytic::{schlick, AshikhminShirley, BlinnPhong, CookTorranceGgx, Lambert};
 pub use cap::CapCheck;
@@ -73,3 +74,4 @@ pub use material::Brdf;
 pub use merl::{MerlBrdf, TabulateOptions};
 pub use reduce::{Coordinates, Reduction, ReductionKind, Samples, MAX_BINS};
 pub use rgl::RglBrdf;
+pub use shell::{ShellFactor, DEFAULT_SHELL_BINS, MAX_SHELL_BINS, MAX_SHELL_FACTOR};

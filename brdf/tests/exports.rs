@@ -2,8 +2,9 @@
 
 use brdf::shader::{shader_source, shader_source_named, Language};
 use brdf::{
-    compact::to_f32, fit_brdf, from_spherical, BatchedFit, BlinnPhong, BrdfFitSettings, ColourMode,
-    CompactBrdf, CookTorranceGgx, Coordinates, FittedBrdf, Lobe, Reduction, ReductionKind,
+    compact::to_f32, fit_brdf, from_spherical, BatchedFit, BlinnPhong, Brdf, BrdfFitSettings,
+    ColourMode, CompactBrdf, CookTorranceGgx, Coordinates, FittedBrdf, Lobe, Reduction,
+    ReductionKind, ShellFactor,
 };
 
 fn fits() -> Vec<FittedBrdf> {
@@ -78,6 +79,15 @@ fn fits() -> Vec<FittedBrdf> {
         let (f, _) = fit_brdf(&b, &s).unwrap();
         assert_eq!(f.lobe, Some(lobe));
         out.push(f);
+    }
+    // A tabulated factor beyond an elevation cut, on an RGB fit and on a
+    // luminance-chroma fit with a lobe: every evaluator reads the unclamped
+    // pair and multiplies the same functions.
+    let last = out.len() - 1;
+    for (k, table) in [(1, &m as &dyn Brdf), (last, &b as &dyn Brdf)] {
+        let within = out[k].evaluated_within(60.0).unwrap();
+        let shell = ShellFactor::fit(table, &within, [6, 3]).unwrap();
+        out.push(within.with_shell(shell).unwrap());
     }
     out
 }
@@ -203,7 +213,8 @@ fn compact_binary_round_trips() {
         let cut = f.reduction.max_elevation_deg < 90.0;
         assert_eq!(c.has_elevation_cut(), cut);
         let lobe_end = if cut { 16 } else { 12 } + if f.lobe.is_some() { 28 } else { 0 };
-        let header = lobe_end + if f.ceiling.is_some() { 12 } else { 0 };
+        let shell_at = lobe_end + if f.ceiling.is_some() { 12 } else { 0 };
+        let header = shell_at + f.shell.as_ref().map_or(0, |sh| 2 + sh.byte_size_f32());
         assert!(bytes.len() < header + 3 * (5 + 3 + 4 * (6 + 60)));
         // Every fit of measured or analytic data has a ceiling, above its peak.
         let ceiling = f.ceiling.expect("a ceiling");
@@ -216,9 +227,31 @@ fn compact_binary_round_trips() {
                 | (u8::from(chroma) << 1)
                 | (u8::from(cut) << 2)
                 | (u8::from(f.lobe.is_some()) << 3)
-                | (1 << 4),
+                | (1 << 4)
+                | (u8::from(f.shell.is_some()) << 5),
             "flags byte"
         );
+        if let Some(sh) = &f.shell {
+            assert_eq!(bytes[shell_at..shell_at + 2], [6, 3]);
+            // A negative factor, a factor of an empty grid, a truncated
+            // table and a shell without a cut are named.
+            let mut bad = bytes.clone();
+            bad[shell_at + 2..shell_at + 6].copy_from_slice(&(-1.0f32).to_le_bytes());
+            let e = CompactBrdf::from_bytes(&bad).unwrap_err().to_string();
+            assert!(e.contains("shell factor -1"), "{e}");
+            let mut empty = bytes.clone();
+            empty[shell_at] = 0;
+            let e = CompactBrdf::from_bytes(&empty).unwrap_err().to_string();
+            assert!(e.contains("shell factor bins 0 x 3"), "{e}");
+            let mut short = bytes.clone();
+            short.truncate(shell_at + 2 + sh.byte_size_f32() - 1);
+            let e = CompactBrdf::from_bytes(&short).unwrap_err().to_string();
+            assert!(e.contains("truncated shell factor"), "{e}");
+            let mut uncut = bytes.clone();
+            uncut[7] &= !4;
+            let e = CompactBrdf::from_bytes(&uncut).unwrap_err().to_string();
+            assert!(e.contains("shell factor without an elevation cut"), "{e}");
+        }
         let mut negative = bytes.clone();
         negative[lobe_end + 4..lobe_end + 8].copy_from_slice(&(-1.0f32).to_le_bytes());
         let e = CompactBrdf::from_bytes(&negative).unwrap_err().to_string();
@@ -314,6 +347,13 @@ fn generated_wgsl_and_glsl_are_valid_shaders() {
                 .any(|(_, f)| f.name.as_deref() == Some("ratfit_lobe")),
             c.lobe.is_some()
         );
+        assert_eq!(
+            module
+                .functions
+                .iter()
+                .any(|(_, f)| f.name.as_deref() == Some("ratfit_shell")),
+            c.shell.is_some()
+        );
 
         let glsl = format!(
             "#version 450\n{}\nlayout(location = 0) out vec4 color;\nvoid main() {{ color = vec4(ratfit_brdf(vec3(0.0, 0.6, 0.8), vec3(0.0, -0.6, 0.8)), 1.0); }}\n",
@@ -366,6 +406,11 @@ fn alta_export_reads_back_and_evaluates_the_same() {
     std::fs::create_dir_all(&dir).unwrap();
     for f in fits() {
         let exported = brdf::AltaRational::from_fitted(&f);
+        if f.shell.is_some() && f.lobe.is_none() {
+            let e = exported.unwrap_err().to_string();
+            assert!(e.contains("tabulated factor"), "{e}");
+            continue;
+        }
         if f.lobe.is_some() {
             let e = exported.unwrap_err().to_string();
             assert!(e.contains("lobe"), "{e}");
@@ -419,6 +464,7 @@ fn the_ceiling_bounds_every_evaluation_path() {
         mode: ColourMode::Rgb,
         lobe: None,
         ceiling: Some(ceiling),
+        shell: None,
         name: "pole".into(),
     };
     fit.validate().unwrap();

@@ -5,7 +5,7 @@ use brdf::baseline::fit_ggx;
 use brdf::fidelity::{hemisphere_errors, HemisphereSettings};
 use brdf::{
     fit_brdf, BlinnPhong, Brdf, BrdfFitSettings, ColourMode, DownsampledTable, Lobe, MerlBrdf,
-    PerceptualBounds, Reduction, ReductionKind, TabulateOptions,
+    PerceptualBounds, Reduction, ReductionKind, ShellFactor, TabulateOptions, DEFAULT_SHELL_BINS,
 };
 use rational_core::{FitSettings, Search};
 
@@ -90,9 +90,14 @@ fn every_representation_is_bounded_on_the_whole_hemisphere() {
         ..Default::default()
     };
     let down = DownsampledTable::new(&table, DownsampledTable::bins_for_bytes(1024));
-    let reps: [(&str, &dyn Brdf); 3] = [
+    let shelled = within
+        .clone()
+        .with_shell(ShellFactor::fit(&table, &within, DEFAULT_SHELL_BINS).unwrap())
+        .unwrap();
+    let reps: [(&str, &dyn Brdf); 4] = [
         ("rational", &fitted),
         ("lobe x rational", &with_lobe),
+        ("rational within 70 degrees x shell factor", &shelled),
         ("table", &down),
     ];
     for (name, rep) in reps {

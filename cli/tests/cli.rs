@@ -880,25 +880,30 @@ fn the_render_check_of_a_perceptual_fit_chooses_its_evaluation_cut() {
         .lines()
         .find(|l| l.starts_with("evaluation cut chosen by the validation renders"))
         .unwrap_or_else(|| panic!("no cut choice in\n{stdout}"));
-    // Four evaluations measured: none, 80, 75 and 70 degrees.
-    assert_eq!(line.matches(", ").count(), 3, "{line}");
+    // Seven evaluations measured: none, then 80, 75 and 70 degrees with
+    // and without the shell factor.
+    assert_eq!(line.matches(", ").count(), 6, "{line}");
+    assert_eq!(line.matches("+shell ").count(), 3, "{line}");
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&fit).unwrap()).unwrap();
     let got = json["brdf"]["reduction"]["max_elevation_deg"]
         .as_f64()
         .unwrap();
     // The file holds the cut the line names.
-    let named = if got >= 90.0 {
-        "none, the whole hemisphere".to_string()
-    } else {
-        format!("{got} degrees")
+    let shell_bytes = json["brdf"]["shell"]["factors"]
+        .as_array()
+        .map(|f| 4 * f.len());
+    let named = match shell_bytes {
+        _ if got >= 90.0 => "none, the whole hemisphere".to_string(),
+        Some(b) => format!("{got} degrees and a shell factor of {b} bytes"),
+        None => format!("{got} degrees"),
     };
     assert!(
         line.contains(&format!("renders: {named} (")),
         "{got}: {line}"
     );
     // The file records every evaluation measured and the choice.
-    assert_eq!(json["evaluation_cut"]["tried"].as_array().unwrap().len(), 4);
+    assert_eq!(json["evaluation_cut"]["tried"].as_array().unwrap().len(), 7);
     let chosen = json["evaluation_cut"]["chosen"].as_f64().unwrap_or(90.0);
     assert!((chosen - got).abs() < 1e-12, "{chosen} against {got}");
 }

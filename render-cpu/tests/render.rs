@@ -637,6 +637,7 @@ fn a_fit_whose_f32_form_loses_its_digits_is_evaluated_in_f64() {
         mode: brdf::ColourMode::Rgb,
         lobe: None,
         ceiling: None,
+        shell: None,
         name: "nearly cancelling".into(),
     };
     fit.validate().unwrap();

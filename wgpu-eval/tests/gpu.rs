@@ -150,6 +150,12 @@ fn synthetic(family: BasisFamily, coordinates: Coordinates, dims: usize, seed: u
         } else {
             std::f32::consts::FRAC_PI_2
         },
+        // A quarter of them (all with the cut) with a shell factor beyond it.
+        shell: (seed % 4 == 0).then(|| brdf::compact::ShellF32 {
+            n_theta_h: 5,
+            n_theta_d: 3,
+            factors: (0..15).map(|k| 0.5 + 0.1 * k as f32).collect(),
+        }),
         channels,
     }
 }
@@ -265,6 +271,7 @@ fn gpu_coordinates_match_the_f64_half_difference_angles() {
         dims: 3,
         max_theta_d: pi,
         max_elevation: pi / 2.0,
+        shell: None,
         channels: vec![channel(0), channel(1), channel(2)],
     };
     let p: Vec<DirectionPair> = pairs(20_000, 5)

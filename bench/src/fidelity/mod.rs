@@ -344,7 +344,13 @@ fn settings_and_plan(args: &FidelityArgs) -> (ValidationSettings, Plan) {
         },
         resolution_3d: if args.quick { 16 } else { args.resolution_3d },
         cut_3d: args.cut_3d,
-        post_cuts: args.post_cuts.clone(),
+        // The quick run measures one cut, with and without the shell
+        // factor, so that every evaluation path of a cut fit is exercised.
+        post_cuts: if args.quick && args.post_cuts.is_empty() {
+            vec![70.0]
+        } else {
+            args.post_cuts.clone()
+        },
         max_coeffs: if args.quick {
             args.max_coeffs.min(60)
         } else {
@@ -413,6 +419,11 @@ fn measure_material(judge: &Judge) -> Result<Vec<Row>> {
                 )?;
                 material_rows.push(row);
                 for (degrees, within) in post_cut {
+                    let start = std::time::Instant::now();
+                    let shell =
+                        brdf::ShellFactor::fit(judge.table, &within, brdf::DEFAULT_SHELL_BINS)
+                            .and_then(|sh| within.clone().with_shell(sh));
+                    let shell_s = start.elapsed().as_secs_f64();
                     let row = measure(
                         judge,
                         Candidate {
@@ -422,6 +433,26 @@ fn measure_material(judge: &Judge) -> Result<Vec<Row>> {
                             fit_s,
                             note: format!(
                                 "the fit above, directions beyond {degrees} degrees moved onto the cut"
+                            ),
+                        },
+                    )?;
+                    material_rows.push(row);
+                    let shelled = shell.with_context(|| {
+                        format!(
+                            "{}: the shell factor beyond {degrees} degrees",
+                            judge.table.name()
+                        )
+                    })?;
+                    let [nh, nd] = brdf::DEFAULT_SHELL_BINS;
+                    let row = measure(
+                        judge,
+                        Candidate {
+                            name: format!("{name} evaluated within {degrees}, shell factor"),
+                            bytes: shelled.byte_size_f32(),
+                            brdf: Arc::new(FitInDomain::new(shelled)),
+                            fit_s: fit_s + shell_s,
+                            note: format!(
+                                "the row above times a factor beyond the cut on {nh} x {nd} theta_h x theta_d cells ({shell_s:.1} s)"
                             ),
                         },
                     )?;

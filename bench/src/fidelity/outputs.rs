@@ -275,6 +275,22 @@ pub(super) fn check(out: &Path, rows: &[Row], noise: &[(String, Vec<f64>)]) -> V
                 problems.push(format!("{m}: {what}"));
             }
         }
+        // Every fit evaluated within a cut is also measured with its shell
+        // factor, which costs bytes.
+        for plain in reps.iter().filter(|r| {
+            r.representation.contains("evaluated within")
+                && !r.representation.ends_with("shell factor")
+        }) {
+            let name = format!("{}, shell factor", plain.representation);
+            match reps.iter().find(|r| r.representation == name) {
+                Some(r) if r.bytes > plain.bytes => {}
+                Some(r) => problems.push(format!(
+                    "{m}: {name} has {} bytes, not more than the fit's {}",
+                    r.bytes, plain.bytes
+                )),
+                None => problems.push(format!("{m}: {name} was not measured")),
+            }
+        }
         for scene in ValidationScene::ALL {
             if !out
                 .join(format!("{}-{}-table.png", slug(m), scene.name()))

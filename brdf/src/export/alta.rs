@@ -93,13 +93,19 @@ impl AltaRational {
     ///
     /// # Errors
     /// Fits in coordinates ALTA has no parametrisation for (the sqrt warp of
-    /// `theta_h`, cosines: refit with radians) or in a basis other than
-    /// Chebyshev.
+    /// `theta_h`, cosines: refit with radians), in a basis other than
+    /// Chebyshev, or with a lobe or a shell factor.
     pub fn from_fitted(fit: &FittedBrdf) -> Result<Self, BrdfError> {
         if fit.lobe.is_some() {
             return Err(BrdfError::Invalid {
                 name: "ALTA export",
                 reason: "ALTA rational functions hold p / q alone; this fit multiplies them by an analytic lobe (export the binary, WGSL or GLSL form, or refit without the lobe)".into(),
+            });
+        }
+        if fit.shell.is_some() {
+            return Err(BrdfError::Invalid {
+                name: "ALTA export",
+                reason: "ALTA rational functions hold p / q alone; this fit multiplies them by a tabulated factor beyond its elevation cut (export the binary, WGSL or GLSL form)".into(),
             });
         }
         if !fit.mode.is_rgb() {

@@ -60,6 +60,47 @@ pub struct CompactBrdf {
     pub lobe: Option<LobeF32>,
     /// The largest RGB value evaluation returns ([`FittedBrdf::ceiling`]).
     pub ceiling: Option<[f32; 3]>,
+    /// The factor beyond the elevation cut ([`crate::ShellFactor`]).
+    pub shell: Option<ShellF32>,
+}
+
+/// [`crate::ShellFactor`] in f32: the cut is the compact form's
+/// `max_elevation`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ShellF32 {
+    /// Bins of `sqrt(theta_h / (pi / 2))`.
+    pub n_theta_h: usize,
+    /// Bins of `theta_d` over `[0, pi / 2]`.
+    pub n_theta_d: usize,
+    /// One factor per cell, `theta_h` major.
+    pub factors: Vec<f32>,
+}
+
+impl ShellF32 {
+    /// The cell of Rusinkiewicz angles, as [`crate::ShellFactor`] finds it.
+    pub fn cell(&self, theta_h: f32, theta_d: f32) -> usize {
+        let h = ((theta_h.max(0.0) / (PI / 2.0)).sqrt() * self.n_theta_h as f32) as usize;
+        let d = (theta_d.max(0.0) / (PI / 2.0) * self.n_theta_d as f32) as usize;
+        h.min(self.n_theta_h - 1) * self.n_theta_d + d.min(self.n_theta_d - 1)
+    }
+
+    /// The factor at an (unclamped) pair: 1 when both directions are
+    /// within the cut whose cosine is `cos_cut`.
+    pub fn factor(&self, wi: [f32; 3], wo: [f32; 3], cos_cut: f32) -> f32 {
+        if wi[2] >= cos_cut && wo[2] >= cos_cut {
+            return 1.0;
+        }
+        let (th, td, _) = half_diff_f32(wi, wo);
+        self.factors[self.cell(th, td)]
+    }
+
+    /// What the factor multiplies among the three functions.
+    pub fn factors_for(k: f32, mode: ColourMode) -> [f32; 3] {
+        match mode {
+            ColourMode::Rgb => [k; 3],
+            ColourMode::LuminanceChroma => [k, 1.0, 1.0],
+        }
+    }
 }
 
 /// Univariate values `phi_0..=phi_deg` at `t` in f32 (the shaders' recurrences).
@@ -232,6 +273,11 @@ impl CompactBrdf {
                 return Some("the lobe".into());
             }
         }
+        if let Some(sh) = &self.shell {
+            if let Some(k) = sh.factors.iter().position(|v| !v.is_finite()) {
+                return Some(format!("shell factor {k}"));
+            }
+        }
         None
     }
 
@@ -264,6 +310,11 @@ impl CompactBrdf {
             mode: f.mode,
             lobe: f.lobe.map(|l| l.to_f32()),
             ceiling: f.ceiling.map(|c| c.map(|v| v as f32)),
+            shell: f.shell.as_ref().map(|sh| ShellF32 {
+                n_theta_h: sh.n_theta_h,
+                n_theta_d: sh.n_theta_d,
+                factors: sh.factors.iter().map(|&v| v as f32).collect(),
+            }),
         }
     }
 
@@ -284,6 +335,7 @@ impl CompactBrdf {
         if wi[2] <= 0.0 || wo[2] <= 0.0 {
             return [0.0; 3];
         }
+        let shell = self.shell_factors(wi, wo);
         let (wi, wo) = if self.has_elevation_cut() {
             let (sin_cut, cos_cut) = self.max_elevation.sin_cos();
             (
@@ -302,7 +354,18 @@ impl CompactBrdf {
             }
             None => v,
         };
-        self.finish(v)
+        self.finish([v[0] * shell[0], v[1] * shell[1], v[2] * shell[2]])
+    }
+
+    /// The shell factor's multipliers of the three functions at an
+    /// unclamped pair (all 1 without a shell or within the cut).
+    pub fn shell_factors(&self, wi: [f32; 3], wo: [f32; 3]) -> [f32; 3] {
+        match &self.shell {
+            Some(sh) => {
+                ShellF32::factors_for(sh.factor(wi, wo, self.max_elevation.cos()), self.mode)
+            }
+            None => [1.0; 3],
+        }
     }
 
     /// RGB from the three functions' values (lobe applied): the colour
@@ -336,7 +399,9 @@ impl CompactBrdf {
     /// coefficients as f32). Unweighted RGB fits of the whole hemisphere
     /// leave the flags 0; bit 1 marks the luminance-chroma mode; bit 3 a
     /// lobe, whose seven f32 (`kd / pi`, `f0`, `alpha`) follow the header;
-    /// bit 4 a ceiling, three f32 after the lobe.
+    /// bit 4 a ceiling, three f32 after the lobe; bit 5 (with bit 2) a
+    /// shell factor after the ceiling: one byte each for its `theta_h` and
+    /// `theta_d` bins, then one f32 per cell.
     pub fn to_bytes(&self) -> Vec<u8> {
         let mut out = b"RFB1".to_vec();
         let coords = match self.coordinates {
@@ -353,7 +418,8 @@ impl CompactBrdf {
             | (u8::from(self.mode == ColourMode::LuminanceChroma) << 1)
             | (u8::from(cut) << 2)
             | (u8::from(self.lobe.is_some()) << 3)
-            | (u8::from(self.ceiling.is_some()) << 4);
+            | (u8::from(self.ceiling.is_some()) << 4)
+            | (u8::from(self.shell.is_some()) << 5);
         out.extend_from_slice(&[coords, self.dims as u8, self.channels.len() as u8, flags]);
         out.extend_from_slice(&self.max_theta_d.to_le_bytes());
         if cut {
@@ -366,6 +432,13 @@ impl CompactBrdf {
         }
         for v in self.ceiling.iter().flatten() {
             out.extend_from_slice(&v.to_le_bytes());
+        }
+        if let Some(sh) = &self.shell {
+            // Bins are at most MAX_SHELL_BINS, so one byte each.
+            out.extend_from_slice(&[sh.n_theta_h as u8, sh.n_theta_d as u8]);
+            for v in &sh.factors {
+                out.extend_from_slice(&v.to_le_bytes());
+            }
         }
         for c in &self.channels {
             let fam = match c.family {
@@ -411,7 +484,7 @@ impl CompactBrdf {
         if nch != 3 {
             return Err(bad(&format!("{nch} channels (3 expected)")));
         }
-        if b[7] > 31 {
+        if b[7] > 63 {
             return Err(bad(&format!("unknown flags {:#04x}", b[7])));
         }
         let weighted = b[7] & 1 == 1;
@@ -471,6 +544,16 @@ impl CompactBrdf {
         } else {
             None
         };
+        let shell = if b[7] & 32 == 32 {
+            if b[7] & 4 == 0 {
+                return Err(bad("a shell factor without an elevation cut"));
+            }
+            let (shell, next) = read_shell(b, pos).map_err(|r| bad(&r))?;
+            pos = next;
+            Some(shell)
+        } else {
+            None
+        };
         let mut channels = Vec::with_capacity(nch);
         for _ in 0..nch {
             let (channel, next) = read_channel(b, pos, dims, weighted).map_err(|r| bad(&r))?;
@@ -484,6 +567,7 @@ impl CompactBrdf {
             mode,
             lobe,
             ceiling,
+            shell,
             coordinates,
             dims,
             max_theta_d,
@@ -491,6 +575,47 @@ impl CompactBrdf {
             channels,
         })
     }
+}
+
+/// The shell factor of the compact binary at `pos` and the position after
+/// it, or what is wrong.
+fn read_shell(b: &[u8], pos: usize) -> Result<(ShellF32, usize), String> {
+    let head = b.get(pos..pos + 2).ok_or("truncated shell factor")?;
+    let (n_theta_h, n_theta_d) = (head[0] as usize, head[1] as usize);
+    if [n_theta_h, n_theta_d]
+        .iter()
+        .any(|&n| n == 0 || n > crate::MAX_SHELL_BINS)
+    {
+        return Err(format!(
+            "shell factor bins {n_theta_h} x {n_theta_d} (each in 1..={})",
+            crate::MAX_SHELL_BINS
+        ));
+    }
+    let cells = n_theta_h * n_theta_d;
+    let raw = b
+        .get(pos + 2..pos + 2 + 4 * cells)
+        .ok_or("truncated shell factor")?;
+    let factors: Vec<f32> = raw
+        .chunks_exact(4)
+        .map(|c| f32::from_le_bytes(c.try_into().expect("4")))
+        .collect();
+    if let Some(v) = factors
+        .iter()
+        .find(|v| !(v.is_finite() && (0.0..=crate::MAX_SHELL_FACTOR as f32).contains(*v)))
+    {
+        return Err(format!(
+            "shell factor {v} is not in [0, {:e}]",
+            crate::MAX_SHELL_FACTOR
+        ));
+    }
+    Ok((
+        ShellF32 {
+            n_theta_h,
+            n_theta_d,
+            factors,
+        },
+        pos + 2 + 4 * cells,
+    ))
 }
 
 /// One channel of the compact binary at `pos`: the channel and the position

@@ -304,7 +304,18 @@ trait BatchForm {
     fn channel(&self, c: usize) -> ChannelView<'_, Self::T>;
     /// RGB from the three functions' values at one (clamped) pair: the
     /// lobe's factors and the colour mode.
-    fn finish(&self, v: [Self::T; 3], wi: [Self::T; 3], wo: [Self::T; 3]) -> [Self::T; 3];
+    /// `shell`: the shell factor's multipliers ([`BatchForm::shell`]),
+    /// applied after the lobe's as in the scalar paths.
+    fn finish(
+        &self,
+        v: [Self::T; 3],
+        wi: [Self::T; 3],
+        wo: [Self::T; 3],
+        shell: Option<[Self::T; 3]>,
+    ) -> [Self::T; 3];
+    /// The shell factor's multipliers of the functions at one unclamped
+    /// pair, `None` for a fit without a shell.
+    fn shell(&self, wi: [Self::T; 3], wo: [Self::T; 3]) -> Option<[Self::T; 3]>;
 
     /// Whether every channel fits the batched path (at most 3 coordinates,
     /// degrees up to 31).
@@ -328,6 +339,8 @@ fn eval_lanes<F: BatchForm>(
     let zero = <F::T as Real>::ZERO;
     let Pairs { mut wi, mut wo } = Pairs::load(wi, wo);
     let above: [bool; LANES] = std::array::from_fn(|l| wi[2][l] > zero && wo[2][l] > zero);
+    // The shell factor reads the directions before they are moved.
+    let (wi_unclamped, wo_unclamped) = (wi, wo);
     if let Some((sin_cut, cos_cut)) = form.cut() {
         clamp_elevation_lanes(&mut wi, cos_cut, sin_cut);
         clamp_elevation_lanes(&mut wo, cos_cut, sin_cut);
@@ -352,7 +365,8 @@ fn eval_lanes<F: BatchForm>(
             continue;
         }
         let pick = |d: &[Lanes<F::T>; 3]| [d[0][l], d[1][l], d[2][l]];
-        *o = form.finish([v[0][l], v[1][l], v[2][l]], pick(&wi), pick(&wo));
+        let shell = form.shell(pick(&wi_unclamped), pick(&wo_unclamped));
+        *o = form.finish([v[0][l], v[1][l], v[2][l]], pick(&wi), pick(&wo), shell);
     }
 }
 
@@ -407,13 +421,19 @@ impl BatchForm for CompactBrdf {
     fn channel(&self, c: usize) -> ChannelView<'_, f32> {
         ChannelView::from(&self.channels[c])
     }
-    fn finish(&self, v: [f32; 3], wi: [f32; 3], wo: [f32; 3]) -> [f32; 3] {
+    fn finish(&self, v: [f32; 3], wi: [f32; 3], wo: [f32; 3], shell: Option<[f32; 3]>) -> [f32; 3] {
         let mut rgb = v;
         if let Some(lobe) = &self.lobe {
             let f = lobe.factors(wi, wo, self.mode);
             rgb = [rgb[0] * f[0], rgb[1] * f[1], rgb[2] * f[2]];
         }
+        if let Some(k) = shell {
+            rgb = [rgb[0] * k[0], rgb[1] * k[1], rgb[2] * k[2]];
+        }
         self.finish(rgb)
+    }
+    fn shell(&self, wi: [f32; 3], wo: [f32; 3]) -> Option<[f32; 3]> {
+        self.shell.as_ref().map(|_| self.shell_factors(wi, wo))
     }
 }
 
@@ -532,7 +552,7 @@ impl BatchForm for BatchedFit {
             degrees: &ch.degrees,
         }
     }
-    fn finish(&self, v: [f64; 3], wi: [f64; 3], wo: [f64; 3]) -> [f64; 3] {
+    fn finish(&self, v: [f64; 3], wi: [f64; 3], wo: [f64; 3], shell: Option<[f64; 3]>) -> [f64; 3] {
         let v = match &self.fit.lobe {
             Some(lobe) => {
                 let f = Lobe::factors(lobe, wi, wo, self.fit.mode);
@@ -540,7 +560,17 @@ impl BatchForm for BatchedFit {
             }
             None => v,
         };
+        let v = match shell {
+            Some(k) => [v[0] * k[0], v[1] * k[1], v[2] * k[2]],
+            None => v,
+        };
         self.fit.finish(v)
+    }
+    fn shell(&self, wi: [f64; 3], wo: [f64; 3]) -> Option<[f64; 3]> {
+        self.fit
+            .shell
+            .as_ref()
+            .map(|sh| crate::ShellFactor::factors_for(sh.factor(wi, wo), self.fit.mode))
     }
 }
 

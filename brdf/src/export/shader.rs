@@ -252,6 +252,73 @@ fn lobe_fn(b: &CompactBrdf, l: Language, prefix: &str) -> String {
     out
 }
 
+/// `{prefix}_shell(wi, wo)`: the shell factor's multipliers of the three
+/// functions at the unclamped pair ([`super::compact::ShellF32::factor`],
+/// its angles computed as [`super::compact::half_diff_f32`] does); empty for
+/// a fit without a shell.
+fn shell_fn(b: &CompactBrdf, l: Language, prefix: &str) -> String {
+    let Some(shell) = &b.shell else {
+        return String::new();
+    };
+    let s = syntax(l);
+    let (f, v3) = (s.float, s.vec3);
+    let n = shell.factors.len();
+    let values: Vec<String> = shell.factors.iter().map(|&v| lit(v)).collect();
+    let mut out = fn_header(l, &format!("{prefix}_shell"), &[("wi", v3), ("wo", v3)], v3);
+    out += &format!(
+        "    if (wi.z >= {c} && wo.z >= {c}) {{ return {v3}(1.0, 1.0, 1.0); }}\n",
+        c = lit(b.max_elevation.cos())
+    );
+    out += &format!("    {} = normalize(wi + wo);\n", decl(l, "h", v3, false));
+    out += &format!("    {} = {prefix}_elev(h);\n", decl(l, "theta_h", f, false));
+    out += &format!("    {} = length(h.xy);\n", decl(l, "s", f, false));
+    out += &format!(
+        "    {} = 1.0;\n    {} = 0.0;\n",
+        decl(l, "cp", f, true),
+        decl(l, "sp", f, true)
+    );
+    out += "    if (s > 0.0) { cp = h.x / s; sp = h.y / s; }\n";
+    out += &format!(
+        "    {} = {v3}(wi.x * cp + wi.y * sp, wi.y * cp - wi.x * sp, wi.z);\n",
+        decl(l, "a", v3, false)
+    );
+    out += &format!(
+        "    {} = {v3}(a.x * h.z - a.z * s, a.y, a.x * s + a.z * h.z);\n",
+        decl(l, "d", v3, false)
+    );
+    out += &format!("    {} = {prefix}_elev(d);\n", decl(l, "theta_d", f, false));
+    let (nh, nd) = (shell.n_theta_h, shell.n_theta_d);
+    let index = |var: &str, x: String, bins: usize| match l {
+        Language::Wgsl => format!("    let {var} = min(u32({x}), {}u);\n", bins - 1),
+        Language::Glsl => format!("    uint {var} = min(uint({x}), {}u);\n", bins - 1),
+    };
+    out += &index(
+        "ih",
+        format!("sqrt(max(theta_h, 0.0) / 1.5707963267949) * {nh}.0"),
+        nh,
+    );
+    out += &index(
+        "id",
+        format!("max(theta_d, 0.0) / 1.5707963267949 * {nd}.0"),
+        nd,
+    );
+    out += &match l {
+        Language::Wgsl => format!(
+            "    var table = array<f32, {n}>({});\n    let k = table[ih * {nd}u + id];\n",
+            values.join(", ")
+        ),
+        Language::Glsl => format!(
+            "    float table[{n}] = float[{n}]({});\n    float k = table[ih * {nd}u + id];\n",
+            values.join(", ")
+        ),
+    };
+    out += &match b.mode {
+        ColourMode::Rgb => format!("    return {v3}(k, k, k);\n}}\n\n"),
+        ColourMode::LuminanceChroma => format!("    return {v3}(k, 1.0, 1.0);\n}}\n\n"),
+    };
+    out
+}
+
 fn source_with_prefix(b: &CompactBrdf, l: Language, prefix: &str) -> String {
     let upper = prefix.to_ascii_uppercase();
     let s = syntax(l);
@@ -276,6 +343,7 @@ fn source_with_prefix(b: &CompactBrdf, l: Language, prefix: &str) -> String {
     }
     out += &to_cut_fn(b, l, prefix);
     out += &lobe_fn(b, l, prefix);
+    out += &shell_fn(b, l, prefix);
     out += &brdf_fn(b, l, prefix);
     out
 }
@@ -359,11 +427,23 @@ fn brdf_fn(b: &CompactBrdf, l: Language, prefix: &str) -> String {
     );
     let components = ["x", "y", "z"];
     let calls: Vec<String> = (0..b.channels.len())
-        .map(|k| match &b.lobe {
-            Some(_) => format!("({prefix}_channel_{k}(x) * lobe.{})", components[k]),
-            None => format!("{prefix}_channel_{k}(x)"),
+        .map(|k| {
+            let mut call = format!("{prefix}_channel_{k}(x)");
+            if b.lobe.is_some() {
+                call = format!("({call} * lobe.{})", components[k]);
+            }
+            if b.shell.is_some() {
+                call = format!("({call} * shell.{})", components[k]);
+            }
+            call
         })
         .collect();
+    if b.shell.is_some() {
+        out += &format!(
+            "    {} = {prefix}_shell(wi, wo);\n",
+            decl(l, "shell", v3, false)
+        );
+    }
     if b.lobe.is_some() {
         out += &format!(
             "    {} = {prefix}_lobe(wi_c, wo_c);\n",

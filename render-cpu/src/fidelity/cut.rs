@@ -1,9 +1,10 @@
 //! [`choose_evaluation_cut`]: a whole-hemisphere fit evaluated within the
-//! elevation cut its validation renders prefer, without fitting again.
+//! elevation cut its validation renders prefer, without fitting the
+//! functions again, with or without a shell factor beyond the cut.
 
 use super::{RenderErrors, Validator, RENDER_CHECK};
 use crate::RenderError;
-use brdf::{Brdf, FittedBrdf};
+use brdf::{Brdf, FittedBrdf, ShellFactor, DEFAULT_SHELL_BINS};
 use serde::Serialize;
 use std::sync::Arc;
 
@@ -18,6 +19,9 @@ pub struct CutChoice {
     pub fitted: FittedBrdf,
     /// The chosen cut in degrees; `None`: the whole hemisphere.
     pub cut: Option<f64>,
+    /// Whether the chosen evaluation has a shell factor beyond the cut
+    /// (in `fitted`).
+    pub shell: bool,
     /// The render errors of the chosen evaluation.
     pub errors: RenderErrors,
     /// The worse scene's mean CIEDE2000 of each evaluation tried, the whole
@@ -30,6 +34,9 @@ pub struct CutChoice {
 pub struct CutTried {
     /// Degrees; `None`: the whole hemisphere.
     pub cut: Option<f64>,
+    /// Whether a shell factor ([`brdf::ShellFactor`]) multiplies the fit
+    /// beyond the cut.
+    pub shell: bool,
     /// The worse scene's mean CIEDE2000.
     pub worst_mean_de: f64,
 }
@@ -42,69 +49,95 @@ impl CutChoice {
             .iter()
             .map(|t| {
                 format!(
-                    "{} {:.2}",
+                    "{}{} {:.2}",
                     t.cut.map_or("none".to_string(), |c| format!("{c}")),
+                    if t.shell { "+shell" } else { "" },
                     t.worst_mean_de
                 )
             })
             .collect();
         let own = self.fitted.reduction.max_elevation_deg;
         let chosen = match self.cut {
+            Some(c) if self.shell => format!(
+                "{c} degrees and a shell factor of {} bytes",
+                self.fitted
+                    .shell
+                    .as_ref()
+                    .map_or(0, ShellFactor::byte_size_f32)
+            ),
             Some(c) => format!("{c} degrees"),
             None if own < 90.0 => format!("none; the fit's own cut of {own} degrees"),
             None => "none, the whole hemisphere".to_string(),
         };
         format!(
-            "evaluation cut chosen by the validation renders: {chosen} (worse scene's mean CIEDE2000 by cut: {})",
+            "evaluation cut chosen by the validation renders: {chosen} (worse scene's mean CIEDE2000 by cut; +shell: with the shell factor beyond it: {})",
             tried.join(", ")
         )
     }
 }
 
 /// A fit over the whole hemisphere (its reduction has no elevation cut)
-/// evaluated within the cut among none and [`EVALUATION_CUTS`] whose
-/// validation renders have the lowest worse-scene mean CIEDE2000. The
-/// functions are not fitted again: directions beyond the cut are moved onto
-/// it ([`brdf::clamp_elevation`]), so grazing views show the fit's value at
+/// evaluated within the cut among none and [`EVALUATION_CUTS`], each
+/// with and without a shell factor fitted to `table` beyond it
+/// ([`brdf::ShellFactor`], [`DEFAULT_SHELL_BINS`]), whose validation
+/// renders have the lowest worse-scene mean CIEDE2000. The functions are
+/// not fitted again: directions beyond the cut are moved onto it
+/// ([`brdf::clamp_elevation`]), so grazing views show the fit's value at
 /// the cut instead of its loosely bounded grazing cells (a silhouette under
-/// a sky mirrors the bright horizon through them). `errors` are the fit's
-/// own errors under `validator`. A fit with a cut is returned as it is.
+/// a sky mirrors the bright horizon through them), and the shell factor
+/// gives them the table's luminance there, cell by cell. `errors` are the
+/// fit's own errors under `validator`. A fit with a cut is returned as it
+/// is.
 ///
 /// # Errors
-/// As [`Validator::measure`].
+/// As [`Validator::measure`], and [`RenderError::Material`] when the shell
+/// factor cannot be fitted (a table of non-finite values).
 pub fn choose_evaluation_cut(
     validator: &Validator,
+    table: &dyn Brdf,
     fitted: FittedBrdf,
     errors: RenderErrors,
 ) -> Result<CutChoice, RenderError> {
     let mut tried = vec![CutTried {
         cut: None,
+        shell: false,
         worst_mean_de: errors.worst_mean(),
     }];
     let mut best = CutChoice {
         fitted,
         cut: None,
+        shell: false,
         errors,
         tried: Vec::new(),
     };
-    let variants: Vec<(f64, FittedBrdf)> = EVALUATION_CUTS
+    let within: Vec<(f64, FittedBrdf)> = EVALUATION_CUTS
         .iter()
         .filter_map(|&degrees| Some((degrees, best.fitted.evaluated_within(degrees)?)))
         .collect();
-    for (degrees, within) in variants {
-        let errors = validator.measure(Arc::new(crate::FitInDomain::new(within.clone())))?;
-        let worst = errors.worst_mean();
-        tried.push(CutTried {
-            cut: Some(degrees),
-            worst_mean_de: worst,
-        });
-        if worst < best.errors.worst_mean() {
-            best = CutChoice {
-                fitted: within,
+    let material_error = |source| RenderError::Material {
+        name: table.name(),
+        source,
+    };
+    for (degrees, plain) in within {
+        let shell = ShellFactor::fit(table, &plain, DEFAULT_SHELL_BINS).map_err(material_error)?;
+        let shelled = plain.clone().with_shell(shell).map_err(material_error)?;
+        for (variant, has_shell) in [(plain, false), (shelled, true)] {
+            let errors = validator.measure(Arc::new(crate::FitInDomain::new(variant.clone())))?;
+            let worst = errors.worst_mean();
+            tried.push(CutTried {
                 cut: Some(degrees),
-                errors,
-                tried: Vec::new(),
-            };
+                shell: has_shell,
+                worst_mean_de: worst,
+            });
+            if worst < best.errors.worst_mean() {
+                best = CutChoice {
+                    fitted: variant,
+                    cut: Some(degrees),
+                    shell: has_shell,
+                    errors,
+                    tried: Vec::new(),
+                };
+            }
         }
     }
     best.tried = tried;
@@ -120,9 +153,9 @@ pub fn render_check_choosing_cut(
     table: Arc<dyn Brdf>,
     fitted: FittedBrdf,
 ) -> Result<CutChoice, RenderError> {
-    let validator = Validator::new(table, RENDER_CHECK)?;
+    let validator = Validator::new(table.clone(), RENDER_CHECK)?;
     let errors = validator.measure(Arc::new(crate::FitInDomain::new(fitted.clone())))?;
-    let mut choice = choose_evaluation_cut(&validator, fitted, errors)?;
+    let mut choice = choose_evaluation_cut(&validator, table.as_ref(), fitted, errors)?;
     choice.errors.images.clear();
     Ok(choice)
 }
@@ -161,9 +194,15 @@ mod tests {
             .measure(Arc::new(crate::FitInDomain::new(fitted.clone())))
             .unwrap();
         let whole = errors.worst_mean();
-        let choice = choose_evaluation_cut(&validator, fitted.clone(), errors).unwrap();
-        // None and every cut measured; the chosen one has the lowest error.
-        assert_eq!(choice.tried.len(), 1 + EVALUATION_CUTS.len());
+        let choice = choose_evaluation_cut(&validator, &glossy, fitted.clone(), errors).unwrap();
+        // None and every cut measured, with and without the shell factor;
+        // the chosen one has the lowest error.
+        assert_eq!(choice.tried.len(), 1 + 2 * EVALUATION_CUTS.len());
+        assert_eq!(choice.shell, choice.fitted.shell.is_some());
+        assert_eq!(
+            choice.tried.iter().filter(|t| t.shell).count(),
+            EVALUATION_CUTS.len()
+        );
         assert!((choice.tried[0].worst_mean_de - whole).abs() < 1e-12);
         let lowest = choice
             .tried
@@ -180,7 +219,7 @@ mod tests {
         let errors = validator
             .measure(Arc::new(crate::FitInDomain::new(within.clone())))
             .unwrap();
-        let kept = choose_evaluation_cut(&validator, within, errors).unwrap();
+        let kept = choose_evaluation_cut(&validator, &glossy, within, errors).unwrap();
         assert_eq!((kept.cut, kept.tried.len()), (None, 1));
         assert!(kept.describe().contains("the fit's own cut of 75 degrees"));
     }

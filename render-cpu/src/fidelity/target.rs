@@ -37,6 +37,8 @@ pub struct TargetAttempt {
     /// (degrees; `None`: the whole hemisphere). See
     /// [`super::choose_evaluation_cut`].
     pub cut: Option<f64>,
+    /// Whether a shell factor beyond that cut was chosen with it.
+    pub shell: bool,
 }
 
 /// The table averaged over the cells of the grid a 3-D fit samples
@@ -70,6 +72,9 @@ pub struct TargetReport {
     /// The evaluation cut chosen by the validation renders for a fit over
     /// the whole hemisphere (degrees; `None`: none).
     pub evaluation_cut: Option<f64>,
+    /// Bytes of the shell factor beyond that cut ([`brdf::ShellFactor`]),
+    /// included in `bytes`, when the renders chose one.
+    pub shell_bytes: Option<usize>,
     /// Its render errors, lights first.
     pub scenes: Vec<SceneError>,
     /// The table against itself with another seed (noise of the comparison).
@@ -103,6 +108,12 @@ impl std::fmt::Display for TargetReport {
             writeln!(
                 f,
                 "  evaluated within {c} degrees of the normal (directions beyond moved onto the cut; chosen by the validation renders)"
+            )?;
+        }
+        if let Some(b) = self.shell_bytes {
+            writeln!(
+                f,
+                "  beyond the cut, a shell factor of {b} bytes scales the fit to the table's luminance, cell by cell of theta_h x theta_d (chosen by the validation renders)"
             )?;
         }
         for (k, scene) in ValidationScene::ALL.iter().enumerate() {
@@ -140,8 +151,10 @@ impl std::fmt::Display for TargetReport {
                     } else {
                         String::new()
                     },
-                    a.cut
-                        .map_or(String::new(), |c| format!(" evaluated within {c} degrees"))
+                    a.cut.map_or(String::new(), |c| format!(
+                        " evaluated within {c} degrees{}",
+                        if a.shell { " with a shell factor" } else { "" }
+                    ))
                 )?,
                 None => writeln!(
                     f,
@@ -237,6 +250,7 @@ fn search_tolerances(
                     result: None,
                     widened: 1.0,
                     cut: None,
+                    shell: false,
                 });
                 if search.best.is_none() && !loosened {
                     // Even the loosest is infeasible: loosen instead.
@@ -258,7 +272,7 @@ fn search_tolerances(
             }
         };
         let errors = validator.measure(Arc::new(crate::scene::FitInDomain::new(fitted.clone())))?;
-        let choice = choose_evaluation_cut(validator, fitted, errors)?;
+        let choice = choose_evaluation_cut(validator, table.as_ref(), fitted, errors)?;
         let (fitted, errors) = (choice.fitted, choice.errors);
         let worst = errors.worst_mean();
         search.tried.push(TargetAttempt {
@@ -267,6 +281,7 @@ fn search_tolerances(
             result: Some((fitted.byte_size_f32(), worst)),
             widened,
             cut: choice.cut,
+            shell: choice.shell,
         });
         let reached = worst <= target_de;
         if reached || worst < search.worst() {
@@ -410,6 +425,7 @@ pub fn fit_to_target(
         rel_tol,
         bytes: fitted.byte_size_f32(),
         evaluation_cut,
+        shell_bytes: fitted.shell.as_ref().map(brdf::ShellFactor::byte_size_f32),
         scenes: errors.scenes.clone(),
         noise: validator.noise.clone(),
         tried,
