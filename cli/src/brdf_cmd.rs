@@ -128,7 +128,10 @@ pub struct FitArgs {
     json: bool,
     /// Skip the render check: by default a fit of a MERL or RGL table is
     /// rendered beside the table on the two validation scenes (64 x 64
-    /// pixels, a few seconds) and the report states the CIEDE2000 reached.
+    /// pixels, a few seconds) and the report states the CIEDE2000 reached;
+    /// with `--perceptual` it also chooses the evaluation cut (80, 75 or 70
+    /// degrees, or the fit's own) and whether a shell factor of 128 bytes
+    /// carries the table's luminance beyond it (`brdf::ShellFactor`).
     #[arg(long)]
     no_render_check: bool,
     /// Output fit (JSON).
@@ -254,14 +257,15 @@ pub fn fit_to_json(args: &FitArgs) -> Result<serde_json::Value> {
         crate::progress::finish();
         let render = if args.no_render_check {
             None
-        } else if args.perceptual && args.max_elevation.is_none() {
-            // A perceptual fit covers the whole hemisphere: the render
-            // check also chooses the cut it is evaluated within.
+        } else if args.perceptual {
+            // A perceptual fit covers the whole hemisphere unless given a
+            // cut: the render check also chooses the cut it is evaluated
+            // within, and whether a shell factor multiplies it beyond.
             let choice = render_cpu::fidelity::render_check_choosing_cut(material.clone(), f)?;
             f = choice.fitted.clone();
             cut_choice = Some((
                 choice.describe(),
-                serde_json::json!({ "chosen": choice.cut, "tried": choice.tried }),
+                serde_json::json!({ "chosen": choice.cut, "shell": choice.shell, "tried": choice.tried }),
             ));
             Some((peak_check(material.as_ref(), &f), choice.errors))
         } else {

@@ -315,6 +315,8 @@ fn run_export(path: &Path, to: &str, output: Option<PathBuf>) -> Result<()> {
                 // The library names no flag; the way out, in `ratfit fit`'s.
                 let hint = if fitted.lobe.is_some() {
                     " (`ratfit fit` without --lobe)"
+                } else if fitted.shell.is_some() {
+                    " (`ratfit fit --no-render-check`, or without --perceptual, keeps the fit without it)"
                 } else if !fitted.mode.is_rgb() {
                     " (`ratfit fit --colour rgb`)"
                 } else if fitted.reduction.coordinates != brdf::Coordinates::Radians {

@@ -173,9 +173,9 @@ pub fn fit_brdf(
                 "report".into(),
                 serde_json::to_value(&report).unwrap_or_default(),
             );
-            if o.render_check && o.perceptual && o.max_elevation.is_none() {
-                // As `ratfit fit`: the render check of a whole-hemisphere
-                // perceptual fit also chooses its evaluation cut.
+            if o.render_check && o.perceptual {
+                // As `ratfit fit`: the render check of a perceptual fit
+                // also chooses its evaluation cut and shell factor.
                 let choice = render_cpu::fidelity::render_check_choosing_cut(table.clone(), fitted)
                     .map_err(Failure::Render)?;
                 extra.insert(
@@ -184,7 +184,7 @@ pub fn fit_brdf(
                 );
                 extra.insert(
                     "evaluation_cut".into(),
-                    serde_json::json!({ "chosen": choice.cut, "tried": choice.tried }),
+                    serde_json::json!({ "chosen": choice.cut, "shell": choice.shell, "tried": choice.tried }),
                 );
                 fitted = choice.fitted;
             } else if o.render_check {

@@ -397,6 +397,41 @@ fn post_cut_variants(fitted: &brdf::FittedBrdf, cuts: &[f64]) -> Vec<(f64, brdf:
         .collect()
 }
 
+/// The row of `within` (a fit evaluated within an elevation cut) times its
+/// shell factor beyond the cut ([`brdf::ShellFactor`], fitted to the table
+/// here; its time is added to the fit's).
+fn measure_with_shell(
+    judge: &Judge,
+    name: &str,
+    within: brdf::FittedBrdf,
+    fit_s: f64,
+) -> Result<Row> {
+    let degrees = within.reduction.max_elevation_deg;
+    let start = Instant::now();
+    let shelled = brdf::ShellFactor::fit(judge.table, &within, brdf::DEFAULT_SHELL_BINS)
+        .and_then(|sh| within.with_shell(sh))
+        .with_context(|| {
+            format!(
+                "{}: the shell factor beyond {degrees} degrees",
+                judge.table.name()
+            )
+        })?;
+    let shell_s = start.elapsed().as_secs_f64();
+    let [nh, nd] = brdf::DEFAULT_SHELL_BINS;
+    measure(
+        judge,
+        Candidate {
+            name: format!("{name}, shell factor"),
+            bytes: shelled.byte_size_f32(),
+            brdf: Arc::new(FitInDomain::new(shelled)),
+            fit_s: fit_s + shell_s,
+            note: format!(
+                "the row above times a factor beyond the cut on {nh} x {nd} theta_h x theta_d cells ({shell_s:.2} s)"
+            ),
+        },
+    )
+}
+
 /// Every representation of one material, measured.
 fn measure_material(judge: &Judge) -> Result<Vec<Row>> {
     let mut material_rows = Vec::new();
@@ -406,6 +441,7 @@ fn measure_material(judge: &Judge) -> Result<Vec<Row>> {
                 let bytes = fitted.byte_size_f32();
                 let note = with_unclamped_peak(note, judge, &fitted);
                 let post_cut = post_cut_variants(&fitted, &judge.plan.post_cuts);
+                let own_cut = (fitted.reduction.max_elevation_deg < 90.0).then(|| fitted.clone());
                 let candidate: Arc<dyn Brdf> = Arc::new(FitInDomain::new(fitted));
                 let row = measure(
                     judge,
@@ -418,17 +454,16 @@ fn measure_material(judge: &Judge) -> Result<Vec<Row>> {
                     },
                 )?;
                 material_rows.push(row);
+                if let Some(cut_fit) = own_cut {
+                    material_rows.push(measure_with_shell(judge, &name, cut_fit, fit_s)?);
+                }
                 for (degrees, within) in post_cut {
-                    let start = std::time::Instant::now();
-                    let shell =
-                        brdf::ShellFactor::fit(judge.table, &within, brdf::DEFAULT_SHELL_BINS)
-                            .and_then(|sh| within.clone().with_shell(sh));
-                    let shell_s = start.elapsed().as_secs_f64();
+                    let name = format!("{name} evaluated within {degrees}");
                     let row = measure(
                         judge,
                         Candidate {
-                            name: format!("{name} evaluated within {degrees}"),
-                            brdf: Arc::new(FitInDomain::new(within)),
+                            name: name.clone(),
+                            brdf: Arc::new(FitInDomain::new(within.clone())),
                             bytes,
                             fit_s,
                             note: format!(
@@ -437,26 +472,7 @@ fn measure_material(judge: &Judge) -> Result<Vec<Row>> {
                         },
                     )?;
                     material_rows.push(row);
-                    let shelled = shell.with_context(|| {
-                        format!(
-                            "{}: the shell factor beyond {degrees} degrees",
-                            judge.table.name()
-                        )
-                    })?;
-                    let [nh, nd] = brdf::DEFAULT_SHELL_BINS;
-                    let row = measure(
-                        judge,
-                        Candidate {
-                            name: format!("{name} evaluated within {degrees}, shell factor"),
-                            bytes: shelled.byte_size_f32(),
-                            brdf: Arc::new(FitInDomain::new(shelled)),
-                            fit_s: fit_s + shell_s,
-                            note: format!(
-                                "the row above times a factor beyond the cut on {nh} x {nd} theta_h x theta_d cells ({shell_s:.1} s)"
-                            ),
-                        },
-                    )?;
-                    material_rows.push(row);
+                    material_rows.push(measure_with_shell(judge, &name, within, fit_s)?);
                 }
             }
             Err(e) => println!("  {name:<46} no fit: {}", crate::output::chain_text(&e)),

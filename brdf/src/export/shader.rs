@@ -252,23 +252,14 @@ fn lobe_fn(b: &CompactBrdf, l: Language, prefix: &str) -> String {
     out
 }
 
-/// `{prefix}_shell(wi, wo)`: the shell factor's multipliers of the three
-/// functions at the unclamped pair ([`super::compact::ShellF32::factor`],
-/// its angles computed as [`super::compact::half_diff_f32`] does); empty for
-/// a fit without a shell.
-fn shell_fn(b: &CompactBrdf, l: Language, prefix: &str) -> String {
-    let Some(shell) = &b.shell else {
-        return String::new();
-    };
+/// Statements that declare `h` (the half vector), `theta_h`, and `d`
+/// (`wi` in the half vector's frame) from `wi` and `wo`, as
+/// [`super::compact::half_diff_f32`] computes them: rotations by the
+/// half vector's own sines and cosines, no trigonometry.
+fn half_frame_statements(l: Language, prefix: &str) -> String {
     let s = syntax(l);
     let (f, v3) = (s.float, s.vec3);
-    let n = shell.factors.len();
-    let values: Vec<String> = shell.factors.iter().map(|&v| lit(v)).collect();
-    let mut out = fn_header(l, &format!("{prefix}_shell"), &[("wi", v3), ("wo", v3)], v3);
-    out += &format!(
-        "    if (wi.z >= {c} && wo.z >= {c}) {{ return {v3}(1.0, 1.0, 1.0); }}\n",
-        c = lit(b.max_elevation.cos())
-    );
+    let mut out = String::new();
     out += &format!("    {} = normalize(wi + wo);\n", decl(l, "h", v3, false));
     out += &format!("    {} = {prefix}_elev(h);\n", decl(l, "theta_h", f, false));
     out += &format!("    {} = length(h.xy);\n", decl(l, "s", f, false));
@@ -286,6 +277,27 @@ fn shell_fn(b: &CompactBrdf, l: Language, prefix: &str) -> String {
         "    {} = {v3}(a.x * h.z - a.z * s, a.y, a.x * s + a.z * h.z);\n",
         decl(l, "d", v3, false)
     );
+    out
+}
+
+/// `{prefix}_shell(wi, wo)`: the shell factor's multipliers of the three
+/// functions at the unclamped pair ([`super::compact::ShellF32::factor`],
+/// its angles computed as [`super::compact::half_diff_f32`] does); empty for
+/// a fit without a shell.
+fn shell_fn(b: &CompactBrdf, l: Language, prefix: &str) -> String {
+    let Some(shell) = &b.shell else {
+        return String::new();
+    };
+    let s = syntax(l);
+    let (f, v3) = (s.float, s.vec3);
+    let n = shell.factors.len();
+    let values: Vec<String> = shell.factors.iter().map(|&v| lit(v)).collect();
+    let mut out = fn_header(l, &format!("{prefix}_shell"), &[("wi", v3), ("wo", v3)], v3);
+    out += &format!(
+        "    if (wi.z >= {c} && wo.z >= {c}) {{ return {v3}(1.0, 1.0, 1.0); }}\n",
+        c = lit(b.max_elevation.cos())
+    );
+    out += &half_frame_statements(l, prefix);
     out += &format!("    {} = {prefix}_elev(d);\n", decl(l, "theta_d", f, false));
     let (nh, nd) = (shell.n_theta_h, shell.n_theta_d);
     let index = |var: &str, x: String, bins: usize| match l {
@@ -364,23 +376,7 @@ fn coords_fn(b: &CompactBrdf, l: Language, prefix: &str) -> String {
         &[("wi", v3), ("wo", v3)],
         v3,
     );
-    out += &format!("    {} = normalize(wi + wo);\n", decl(l, "h", v3, false));
-    out += &format!("    {} = {prefix}_elev(h);\n", decl(l, "theta_h", f, false));
-    out += &format!("    {} = length(h.xy);\n", decl(l, "s", f, false));
-    out += &format!(
-        "    {} = 1.0;\n    {} = 0.0;\n",
-        decl(l, "cp", f, true),
-        decl(l, "sp", f, true)
-    );
-    out += "    if (s > 0.0) { cp = h.x / s; sp = h.y / s; }\n";
-    out += &format!(
-        "    {} = {v3}(wi.x * cp + wi.y * sp, wi.y * cp - wi.x * sp, wi.z);\n",
-        decl(l, "a", v3, false)
-    );
-    out += &format!(
-        "    {} = {v3}(a.x * h.z - a.z * s, a.y, a.x * s + a.z * h.z);\n",
-        decl(l, "d", v3, false)
-    );
+    out += &half_frame_statements(l, prefix);
     out += &format!(
         "    {} = min({prefix}_elev(d), {upper}_MAX_THETA_D);\n",
         decl(l, "theta_d", f, false)

@@ -86,8 +86,9 @@ impl CutChoice {
 /// the cut instead of its loosely bounded grazing cells (a silhouette under
 /// a sky mirrors the bright horizon through them), and the shell factor
 /// gives them the table's luminance there, cell by cell. `errors` are the
-/// fit's own errors under `validator`. A fit with a cut is returned as it
-/// is.
+/// fit's own errors under `validator`. A fit with a cut of its own keeps
+/// it, and is measured with a shell factor beyond it as well (`cut` is then
+/// its own cut when the shell is chosen, `None` when it is not).
 ///
 /// # Errors
 /// As [`Validator::measure`], and [`RenderError::Material`] when the shell
@@ -110,18 +111,30 @@ pub fn choose_evaluation_cut(
         errors,
         tried: Vec::new(),
     };
-    let within: Vec<(f64, FittedBrdf)> = EVALUATION_CUTS
-        .iter()
-        .filter_map(|&degrees| Some((degrees, best.fitted.evaluated_within(degrees)?)))
-        .collect();
+    // (cut, the fit evaluated within it, whether that evaluation is still
+    // to be measured): a fit with its own cut is measured already.
+    let own = best.fitted.reduction.max_elevation_deg;
+    let within: Vec<(f64, FittedBrdf, bool)> = if own < 90.0 {
+        if best.fitted.shell.is_some() {
+            Vec::new()
+        } else {
+            vec![(own, best.fitted.clone(), false)]
+        }
+    } else {
+        EVALUATION_CUTS
+            .iter()
+            .filter_map(|&degrees| Some((degrees, best.fitted.evaluated_within(degrees)?, true)))
+            .collect()
+    };
     let material_error = |source| RenderError::Material {
         name: table.name(),
         source,
     };
-    for (degrees, plain) in within {
+    for (degrees, plain, measure_plain) in within {
         let shell = ShellFactor::fit(table, &plain, DEFAULT_SHELL_BINS).map_err(material_error)?;
         let shelled = plain.clone().with_shell(shell).map_err(material_error)?;
-        for (variant, has_shell) in [(plain, false), (shelled, true)] {
+        let variants = [(plain, false), (shelled, true)];
+        for (variant, has_shell) in variants.into_iter().filter(|v| v.1 || measure_plain) {
             let errors = validator.measure(Arc::new(crate::FitInDomain::new(variant.clone())))?;
             let worst = errors.worst_mean();
             tried.push(CutTried {
@@ -213,14 +226,34 @@ mod tests {
         let cut_in_file = choice.fitted.reduction.max_elevation_deg;
         assert!((cut_in_file - choice.cut.unwrap_or(90.0)).abs() < 1e-12);
         assert_eq!(choice.fitted.channels, fitted.channels);
-        // A fit that already has a cut is measured as it is.
+        // A fit that already has a cut keeps it, with or without the shell.
         let mut within = fitted;
         within.reduction = within.reduction.with_max_elevation(75.0);
         let errors = validator
             .measure(Arc::new(crate::FitInDomain::new(within.clone())))
             .unwrap();
-        let kept = choose_evaluation_cut(&validator, &glossy, within, errors).unwrap();
+        let kept = choose_evaluation_cut(&validator, &glossy, within.clone(), errors).unwrap();
+        assert_eq!(kept.tried.len(), 2);
+        assert_eq!((kept.tried[1].cut, kept.tried[1].shell), (Some(75.0), true));
+        assert_eq!(kept.fitted.reduction, within.reduction);
+        if kept.shell {
+            assert_eq!(kept.cut, Some(75.0));
+            assert!(kept
+                .describe()
+                .contains("75 degrees and a shell factor of 128 bytes"));
+        } else {
+            assert_eq!(kept.cut, None);
+            assert!(kept.describe().contains("the fit's own cut of 75 degrees"));
+        }
+        // With its shell it is measured as it is.
+        let shelled = within
+            .clone()
+            .with_shell(ShellFactor::fit(&glossy, &within, DEFAULT_SHELL_BINS).unwrap())
+            .unwrap();
+        let errors = validator
+            .measure(Arc::new(crate::FitInDomain::new(shelled.clone())))
+            .unwrap();
+        let kept = choose_evaluation_cut(&validator, &glossy, shelled, errors).unwrap();
         assert_eq!((kept.cut, kept.tried.len()), (None, 1));
-        assert!(kept.describe().contains("the fit's own cut of 75 degrees"));
     }
 }
