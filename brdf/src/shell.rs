@@ -92,9 +92,8 @@ impl ShellFactor {
     ///
     /// # Errors
     /// `within` has no elevation cut or has a shell already, `bins` outside
-    /// `1..=MAX_SHELL_BINS`, or a factor outside what
-    /// [`ShellFactor::validate`] accepts (a table whose luminance is not
-    /// finite).
+    /// `1..=MAX_SHELL_BINS`, or a cell whose table or fit luminance
+    /// integral is not finite (named).
     pub fn fit(
         table: &dyn Brdf,
         within: &crate::FittedBrdf,
@@ -158,6 +157,25 @@ impl ShellFactor {
                 (t_sum, f_sum)
             })
             .collect();
+        // A non-finite integral would otherwise become a factor of 0, 1 or
+        // the largest allowed without a word: name the cell instead.
+        if let Some((cell, &(t, f))) = sums
+            .iter()
+            .enumerate()
+            .find(|(_, (t, f))| !(t.is_finite() && f.is_finite()))
+        {
+            let whose = if t.is_finite() {
+                "the fit's"
+            } else {
+                "the table's"
+            };
+            return Err(bad(format!(
+                "{whose} luminance integral over cell {cell} ({} x {} cells) beyond the cut is {}",
+                bins[0],
+                bins[1],
+                if t.is_finite() { f } else { t }
+            )));
+        }
         let factors = sums
             .iter()
             .map(|&(t, f)| {

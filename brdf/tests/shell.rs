@@ -134,6 +134,34 @@ fn a_shell_needs_a_cut_and_valid_bins() {
     assert!(e.to_string().contains("has a shell factor already"), "{e}");
 }
 
+/// `glossy` with NaN beyond 80 degrees: a table no factor can be fitted to.
+struct NanAtGrazing(CookTorranceGgx);
+
+impl Brdf for NanAtGrazing {
+    fn eval(&self, wi: brdf::Vec3, wo: brdf::Vec3) -> [f64; 3] {
+        let cos80 = 80f64.to_radians().cos();
+        if wi[2] < cos80 || wo[2] < cos80 {
+            return [f64::NAN; 3];
+        }
+        self.0.eval(wi, wo)
+    }
+
+    fn name(&self) -> String {
+        "NaN at grazing".into()
+    }
+}
+
+#[test]
+fn a_table_of_non_finite_values_is_named_not_turned_into_a_factor() {
+    let e = ShellFactor::fit(&NanAtGrazing(glossy()), &within_70(), DEFAULT_SHELL_BINS)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("the table's luminance integral over cell") && e.contains("NaN"),
+        "{e}"
+    );
+}
+
 #[test]
 fn fit_files_with_a_shell_round_trip_and_edited_ones_are_named() {
     let table = glossy();
