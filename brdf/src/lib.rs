@@ -74,4 +74,6 @@ pub use material::Brdf;
 pub use merl::{MerlBrdf, TabulateOptions};
 pub use reduce::{Coordinates, Reduction, ReductionKind, Samples, MAX_BINS};
 pub use rgl::RglBrdf;
-pub use shell::{ShellFactor, DEFAULT_SHELL_BINS, MAX_SHELL_BINS, MAX_SHELL_FACTOR};
+pub use shell::{
+    ShellFactor, DEFAULT_SHELL_BINS, MAX_SHELL_BINS, MAX_SHELL_FACTOR, SHELL_BIN_CHOICES,
+};

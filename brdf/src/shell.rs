@@ -31,6 +31,11 @@ pub const MAX_SHELL_FACTOR: f64 = 1e6;
 /// square-root warp) by 4 `theta_d`, 128 bytes as f32.
 pub const DEFAULT_SHELL_BINS: [usize; 2] = [8, 4];
 
+/// The bins the render checks try beyond a cut, largest first: the default
+/// 8 x 4 (128 bytes) and 4 x 4 (64 bytes), which keeps most of its gain
+/// and fits fits that the larger one would push past a byte budget.
+pub const SHELL_BIN_CHOICES: [[usize; 2]; 2] = [DEFAULT_SHELL_BINS, [4, 4]];
+
 /// Steps of the quadrature [`ShellFactor::fit`] integrates with: midpoints
 /// per cell along `theta_h` and along `theta_d`, and of `phi_d` over the
 /// circle.

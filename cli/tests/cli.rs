@@ -880,22 +880,24 @@ fn the_render_check_of_a_perceptual_fit_chooses_its_evaluation_cut() {
         .lines()
         .find(|l| l.starts_with("evaluation cut chosen by the validation renders"))
         .unwrap_or_else(|| panic!("no cut choice in\n{stdout}"));
-    // Seven evaluations measured: none, then 80, 75 and 70 degrees with
-    // and without the shell factor.
-    assert_eq!(line.matches(", ").count(), 6, "{line}");
-    assert_eq!(line.matches("+shell ").count(), 3, "{line}");
+    // Ten evaluations measured: none, then 80, 75 and 70 degrees without
+    // and with each shell factor (8 x 4 and 4 x 4 cells).
+    assert_eq!(line.matches(", ").count(), 9, "{line}");
+    assert_eq!(line.matches("+shell ").count(), 6, "{line}");
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&fit).unwrap()).unwrap();
     let got = json["brdf"]["reduction"]["max_elevation_deg"]
         .as_f64()
         .unwrap();
     // The file holds the cut the line names.
-    let shell_bytes = json["brdf"]["shell"]["factors"]
-        .as_array()
-        .map(|f| 4 * f.len());
+    let shell = &json["brdf"]["shell"];
+    let shell_bytes = shell["factors"].as_array().map(|f| 4 * f.len());
     let named = match shell_bytes {
         _ if got >= 90.0 => "none, the whole hemisphere".to_string(),
-        Some(b) => format!("{got} degrees and a shell factor of {b} bytes"),
+        Some(b) => format!(
+            "{got} degrees and a shell factor of {b} bytes ({} x {} cells)",
+            shell["n_theta_h"], shell["n_theta_d"]
+        ),
         None => format!("{got} degrees"),
     };
     assert!(
@@ -903,7 +905,10 @@ fn the_render_check_of_a_perceptual_fit_chooses_its_evaluation_cut() {
         "{got}: {line}"
     );
     // The file records every evaluation measured and the choice.
-    assert_eq!(json["evaluation_cut"]["tried"].as_array().unwrap().len(), 7);
+    assert_eq!(
+        json["evaluation_cut"]["tried"].as_array().unwrap().len(),
+        10
+    );
     let chosen = json["evaluation_cut"]["chosen"].as_f64().unwrap_or(90.0);
     assert!((chosen - got).abs() < 1e-12, "{chosen} against {got}");
 }

@@ -397,39 +397,50 @@ fn post_cut_variants(fitted: &brdf::FittedBrdf, cuts: &[f64]) -> Vec<(f64, brdf:
         .collect()
 }
 
-/// The row of `within` (a fit evaluated within an elevation cut) times its
+/// The rows of `within` (a fit evaluated within an elevation cut) times its
 /// shell factor beyond the cut ([`brdf::ShellFactor`], fitted to the table
-/// here; its time is added to the fit's).
-fn measure_with_shell(
+/// here at each of [`brdf::SHELL_BIN_CHOICES`]; its time is added to the
+/// fit's). The default bins' row is named `{name}, shell factor`, the
+/// others' `{name}, shell factor NH x ND`.
+fn measure_with_shells(
     judge: &Judge,
     name: &str,
     within: brdf::FittedBrdf,
     fit_s: f64,
-) -> Result<Row> {
+) -> Result<Vec<Row>> {
     let degrees = within.reduction.max_elevation_deg;
-    let start = Instant::now();
-    let shelled = brdf::ShellFactor::fit(judge.table, &within, brdf::DEFAULT_SHELL_BINS)
-        .and_then(|sh| within.with_shell(sh))
-        .with_context(|| {
-            format!(
-                "{}: the shell factor beyond {degrees} degrees",
-                judge.table.name()
-            )
-        })?;
-    let shell_s = start.elapsed().as_secs_f64();
-    let [nh, nd] = brdf::DEFAULT_SHELL_BINS;
-    measure(
-        judge,
-        Candidate {
-            name: format!("{name}, shell factor"),
-            bytes: shelled.byte_size_f32(),
-            brdf: Arc::new(FitInDomain::new(shelled)),
-            fit_s: fit_s + shell_s,
-            note: format!(
-                "the row above times a factor beyond the cut on {nh} x {nd} theta_h x theta_d cells ({shell_s:.2} s)"
-            ),
-        },
-    )
+    let mut rows = Vec::new();
+    for bins in brdf::SHELL_BIN_CHOICES {
+        let start = Instant::now();
+        let shelled = brdf::ShellFactor::fit(judge.table, &within, bins)
+            .and_then(|sh| within.clone().with_shell(sh))
+            .with_context(|| {
+                format!(
+                    "{}: the shell factor beyond {degrees} degrees",
+                    judge.table.name()
+                )
+            })?;
+        let shell_s = start.elapsed().as_secs_f64();
+        let [nh, nd] = bins;
+        let suffix = if bins == brdf::DEFAULT_SHELL_BINS {
+            String::new()
+        } else {
+            format!(" {nh} x {nd}")
+        };
+        rows.push(measure(
+            judge,
+            Candidate {
+                name: format!("{name}, shell factor{suffix}"),
+                bytes: shelled.byte_size_f32(),
+                brdf: Arc::new(FitInDomain::new(shelled)),
+                fit_s: fit_s + shell_s,
+                note: format!(
+                    "the row above times a factor beyond the cut on {nh} x {nd} theta_h x theta_d cells ({shell_s:.2} s)"
+                ),
+            },
+        )?);
+    }
+    Ok(rows)
 }
 
 /// Every representation of one material, measured.
@@ -455,7 +466,7 @@ fn measure_material(judge: &Judge) -> Result<Vec<Row>> {
                 )?;
                 material_rows.push(row);
                 if let Some(cut_fit) = own_cut {
-                    material_rows.push(measure_with_shell(judge, &name, cut_fit, fit_s)?);
+                    material_rows.extend(measure_with_shells(judge, &name, cut_fit, fit_s)?);
                 }
                 for (degrees, within) in post_cut {
                     let name = format!("{name} evaluated within {degrees}");
@@ -472,7 +483,7 @@ fn measure_material(judge: &Judge) -> Result<Vec<Row>> {
                         },
                     )?;
                     material_rows.push(row);
-                    material_rows.push(measure_with_shell(judge, &name, within, fit_s)?);
+                    material_rows.extend(measure_with_shells(judge, &name, within, fit_s)?);
                 }
             }
             Err(e) => println!("  {name:<46} no fit: {}", crate::output::chain_text(&e)),

@@ -275,20 +275,29 @@ pub(super) fn check(out: &Path, rows: &[Row], noise: &[(String, Vec<f64>)]) -> V
                 problems.push(format!("{m}: {what}"));
             }
         }
-        // Every fit evaluated within a cut is also measured with its shell
-        // factor, which costs bytes.
+        // Every fit evaluated within a cut is also measured with each of its
+        // shell factors, which cost bytes.
         for plain in reps.iter().filter(|r| {
             r.representation.contains("evaluated within")
-                && !r.representation.ends_with("shell factor")
+                && !r.representation.contains(", shell factor")
         }) {
-            let name = format!("{}, shell factor", plain.representation);
-            match reps.iter().find(|r| r.representation == name) {
-                Some(r) if r.bytes > plain.bytes => {}
-                Some(r) => problems.push(format!(
-                    "{m}: {name} has {} bytes, not more than the fit's {}",
-                    r.bytes, plain.bytes
-                )),
-                None => problems.push(format!("{m}: {name} was not measured")),
+            for [nh, nd] in brdf::SHELL_BIN_CHOICES {
+                let suffix = if [nh, nd] == brdf::DEFAULT_SHELL_BINS {
+                    String::new()
+                } else {
+                    format!(" {nh} x {nd}")
+                };
+                let name = format!("{}, shell factor{suffix}", plain.representation);
+                match reps.iter().find(|r| r.representation == name) {
+                    Some(r) if r.bytes == plain.bytes + 4 * nh * nd => {}
+                    Some(r) => problems.push(format!(
+                        "{m}: {name} has {} bytes, not the fit's {} and {} for its factors",
+                        r.bytes,
+                        plain.bytes,
+                        4 * nh * nd
+                    )),
+                    None => problems.push(format!("{m}: {name} was not measured")),
+                }
             }
         }
         for scene in ValidationScene::ALL {

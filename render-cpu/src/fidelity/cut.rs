@@ -4,7 +4,7 @@
 
 use super::{RenderErrors, Validator, RENDER_CHECK};
 use crate::RenderError;
-use brdf::{Brdf, FittedBrdf, ShellFactor, DEFAULT_SHELL_BINS};
+use brdf::{Brdf, FittedBrdf, ShellFactor, SHELL_BIN_CHOICES};
 use serde::Serialize;
 use std::sync::Arc;
 
@@ -24,8 +24,7 @@ pub struct CutChoice {
     pub shell: bool,
     /// The render errors of the chosen evaluation.
     pub errors: RenderErrors,
-    /// The worse scene's mean CIEDE2000 of each evaluation tried, the whole
-    /// hemisphere first.
+    /// Every evaluation measured, the fit as given first.
     pub tried: Vec<CutTried>,
 }
 
@@ -37,8 +36,22 @@ pub struct CutTried {
     /// Whether a shell factor ([`brdf::ShellFactor`]) multiplies the fit
     /// beyond the cut.
     pub shell: bool,
+    /// Its `theta_h` x `theta_d` bins, with a shell factor.
+    pub shell_bins: Option<[usize; 2]>,
+    /// Bytes of the evaluation (f32), the shell factor included.
+    pub bytes: usize,
     /// The worse scene's mean CIEDE2000.
     pub worst_mean_de: f64,
+}
+
+impl CutTried {
+    fn label(&self) -> String {
+        let cut = self.cut.map_or("none".to_string(), |c| format!("{c}"));
+        match self.shell_bins {
+            Some([nh, nd]) => format!("{cut}+shell {nh}x{nd}"),
+            None => cut,
+        }
+    }
 }
 
 impl CutChoice {
@@ -47,48 +60,63 @@ impl CutChoice {
         let tried: Vec<String> = self
             .tried
             .iter()
-            .map(|t| {
-                format!(
-                    "{}{} {:.2}",
-                    t.cut.map_or("none".to_string(), |c| format!("{c}")),
-                    if t.shell { "+shell" } else { "" },
-                    t.worst_mean_de
-                )
-            })
+            .map(|t| format!("{} {:.2} ({} B)", t.label(), t.worst_mean_de, t.bytes))
             .collect();
         let own = self.fitted.reduction.max_elevation_deg;
-        let chosen = match self.cut {
-            Some(c) if self.shell => format!(
-                "{c} degrees and a shell factor of {} bytes",
-                self.fitted
-                    .shell
-                    .as_ref()
-                    .map_or(0, ShellFactor::byte_size_f32)
+        let chosen = match (self.cut, self.fitted.shell.as_ref()) {
+            (Some(c), Some(shell)) if self.shell => format!(
+                "{c} degrees and a shell factor of {} bytes ({} x {} cells)",
+                shell.byte_size_f32(),
+                shell.n_theta_h,
+                shell.n_theta_d
             ),
-            Some(c) => format!("{c} degrees"),
-            None if own < 90.0 => format!("none; the fit's own cut of {own} degrees"),
-            None => "none, the whole hemisphere".to_string(),
+            (Some(c), _) => format!("{c} degrees"),
+            (None, Some(_)) => {
+                format!("none; the fit's own cut of {own} degrees and its shell factor")
+            }
+            (None, _) if own < 90.0 => format!("none; the fit's own cut of {own} degrees"),
+            (None, _) => "none, the whole hemisphere".to_string(),
         };
         format!(
-            "evaluation cut chosen by the validation renders: {chosen} (worse scene's mean CIEDE2000 by cut; +shell: with the shell factor beyond it: {})",
+            "evaluation cut chosen by the validation renders: {chosen} (worse scene's mean CIEDE2000 and bytes by cut; +shell: with a shell factor of theta_h x theta_d cells beyond it: {})",
             tried.join(", ")
         )
     }
 }
 
+/// The index of the evaluation to keep among `tried`: with a target, the
+/// fewest bytes among those whose worse scene reaches it (the lower error
+/// between equal sizes); without one, or when none reaches it, the lowest
+/// error (the fewer bytes between equal errors).
+fn preferred(tried: &[CutTried], target_de: Option<f64>) -> usize {
+    let by_error = |a: &CutTried, b: &CutTried| {
+        a.worst_mean_de
+            .total_cmp(&b.worst_mean_de)
+            .then(a.bytes.cmp(&b.bytes))
+    };
+    let indexed = || tried.iter().enumerate();
+    indexed()
+        .filter(|(_, t)| target_de.is_some_and(|d| t.worst_mean_de <= d))
+        .min_by(|(_, a), (_, b)| a.bytes.cmp(&b.bytes).then(by_error(a, b)))
+        .or_else(|| indexed().min_by(|(_, a), (_, b)| by_error(a, b)))
+        .map_or(0, |(k, _)| k)
+}
+
 /// A fit over the whole hemisphere (its reduction has no elevation cut)
 /// evaluated within the cut among none and [`EVALUATION_CUTS`], each
-/// with and without a shell factor fitted to `table` beyond it
-/// ([`brdf::ShellFactor`], [`DEFAULT_SHELL_BINS`]), whose validation
-/// renders have the lowest worse-scene mean CIEDE2000. The functions are
-/// not fitted again: directions beyond the cut are moved onto it
-/// ([`brdf::clamp_elevation`]), so grazing views show the fit's value at
+/// without and with a shell factor fitted to `table` beyond it
+/// ([`brdf::ShellFactor`], at each of [`SHELL_BIN_CHOICES`]), measured on
+/// the validation renders. The evaluation kept has the lowest worse-scene
+/// mean CIEDE2000 or, given `target_de`, the fewest bytes among those that
+/// reach it (the smallest representation is what a target asks for). The
+/// functions are not fitted again: directions beyond the cut are moved onto
+/// it ([`brdf::clamp_elevation`]), so grazing views show the fit's value at
 /// the cut instead of its loosely bounded grazing cells (a silhouette under
 /// a sky mirrors the bright horizon through them), and the shell factor
 /// gives them the table's luminance there, cell by cell. `errors` are the
 /// fit's own errors under `validator`. A fit with a cut of its own keeps
-/// it, and is measured with a shell factor beyond it as well (`cut` is then
-/// its own cut when the shell is chosen, `None` when it is not).
+/// it, and is measured with the shell factors beyond it as well (`cut` is
+/// then its own cut when a shell is chosen, `None` when none is).
 ///
 /// # Errors
 /// As [`Validator::measure`], and [`RenderError::Material`] when the shell
@@ -98,63 +126,66 @@ pub fn choose_evaluation_cut(
     table: &dyn Brdf,
     fitted: FittedBrdf,
     errors: RenderErrors,
+    target_de: Option<f64>,
 ) -> Result<CutChoice, RenderError> {
     let mut tried = vec![CutTried {
         cut: None,
-        shell: false,
+        shell: fitted.shell.is_some(),
+        shell_bins: fitted.shell.as_ref().map(|s| [s.n_theta_h, s.n_theta_d]),
+        bytes: fitted.byte_size_f32(),
         worst_mean_de: errors.worst_mean(),
     }];
-    let mut best = CutChoice {
-        fitted,
-        cut: None,
-        shell: false,
-        errors,
-        tried: Vec::new(),
-    };
     // (cut, the fit evaluated within it, whether that evaluation is still
     // to be measured): a fit with its own cut is measured already.
-    let own = best.fitted.reduction.max_elevation_deg;
+    let own = fitted.reduction.max_elevation_deg;
     let within: Vec<(f64, FittedBrdf, bool)> = if own < 90.0 {
-        if best.fitted.shell.is_some() {
+        if fitted.shell.is_some() {
             Vec::new()
         } else {
-            vec![(own, best.fitted.clone(), false)]
+            vec![(own, fitted.clone(), false)]
         }
     } else {
         EVALUATION_CUTS
             .iter()
-            .filter_map(|&degrees| Some((degrees, best.fitted.evaluated_within(degrees)?, true)))
+            .filter_map(|&degrees| Some((degrees, fitted.evaluated_within(degrees)?, true)))
             .collect()
     };
     let material_error = |source| RenderError::Material {
         name: table.name(),
         source,
     };
+    let mut measured = vec![(fitted, errors)];
     for (degrees, plain, measure_plain) in within {
-        let shell = ShellFactor::fit(table, &plain, DEFAULT_SHELL_BINS).map_err(material_error)?;
-        let shelled = plain.clone().with_shell(shell).map_err(material_error)?;
-        let variants = [(plain, false), (shelled, true)];
-        for (variant, has_shell) in variants.into_iter().filter(|v| v.1 || measure_plain) {
+        let mut variants = Vec::new();
+        if measure_plain {
+            variants.push((plain.clone(), None));
+        }
+        for bins in SHELL_BIN_CHOICES {
+            let shell = ShellFactor::fit(table, &plain, bins).map_err(material_error)?;
+            let shelled = plain.clone().with_shell(shell).map_err(material_error)?;
+            variants.push((shelled, Some(bins)));
+        }
+        for (variant, shell_bins) in variants {
             let errors = validator.measure(Arc::new(crate::FitInDomain::new(variant.clone())))?;
-            let worst = errors.worst_mean();
             tried.push(CutTried {
                 cut: Some(degrees),
-                shell: has_shell,
-                worst_mean_de: worst,
+                shell: shell_bins.is_some(),
+                shell_bins,
+                bytes: variant.byte_size_f32(),
+                worst_mean_de: errors.worst_mean(),
             });
-            if worst < best.errors.worst_mean() {
-                best = CutChoice {
-                    fitted: variant,
-                    cut: Some(degrees),
-                    shell: has_shell,
-                    errors,
-                    tried: Vec::new(),
-                };
-            }
+            measured.push((variant, errors));
         }
     }
-    best.tried = tried;
-    Ok(best)
+    let k = preferred(&tried, target_de);
+    let (fitted, errors) = measured.swap_remove(k);
+    Ok(CutChoice {
+        fitted,
+        cut: if k == 0 { None } else { tried[k].cut },
+        shell: tried[k].shell,
+        errors,
+        tried,
+    })
 }
 
 /// [`super::render_check`] with the evaluation cut chosen
@@ -168,7 +199,7 @@ pub fn render_check_choosing_cut(
 ) -> Result<CutChoice, RenderError> {
     let validator = Validator::new(table.clone(), RENDER_CHECK)?;
     let errors = validator.measure(Arc::new(crate::FitInDomain::new(fitted.clone())))?;
-    let mut choice = choose_evaluation_cut(&validator, table.as_ref(), fitted, errors)?;
+    let mut choice = choose_evaluation_cut(&validator, table.as_ref(), fitted, errors, None)?;
     choice.errors.images.clear();
     Ok(choice)
 }
@@ -207,15 +238,22 @@ mod tests {
             .measure(Arc::new(crate::FitInDomain::new(fitted.clone())))
             .unwrap();
         let whole = errors.worst_mean();
-        let choice = choose_evaluation_cut(&validator, &glossy, fitted.clone(), errors).unwrap();
-        // None and every cut measured, with and without the shell factor;
+        let choice =
+            choose_evaluation_cut(&validator, &glossy, fitted.clone(), errors.clone(), None)
+                .unwrap();
+        // None and every cut measured, without and with each shell factor;
         // the chosen one has the lowest error.
-        assert_eq!(choice.tried.len(), 1 + 2 * EVALUATION_CUTS.len());
+        let shells = SHELL_BIN_CHOICES.len();
+        assert_eq!(choice.tried.len(), 1 + (1 + shells) * EVALUATION_CUTS.len());
         assert_eq!(choice.shell, choice.fitted.shell.is_some());
         assert_eq!(
             choice.tried.iter().filter(|t| t.shell).count(),
-            EVALUATION_CUTS.len()
+            shells * EVALUATION_CUTS.len()
         );
+        for t in &choice.tried {
+            let shell_bytes = t.shell_bins.map_or(0, |[nh, nd]| 4 * nh * nd);
+            assert_eq!(t.bytes, fitted.byte_size_f32() + shell_bytes);
+        }
         assert!((choice.tried[0].worst_mean_de - whole).abs() < 1e-12);
         let lowest = choice
             .tried
@@ -226,21 +264,45 @@ mod tests {
         let cut_in_file = choice.fitted.reduction.max_elevation_deg;
         assert!((cut_in_file - choice.cut.unwrap_or(90.0)).abs() < 1e-12);
         assert_eq!(choice.fitted.channels, fitted.channels);
+        // A target every evaluation reaches takes the fewest bytes; one
+        // none reaches, the lowest error.
+        let reached = choose_evaluation_cut(
+            &validator,
+            &glossy,
+            fitted.clone(),
+            errors.clone(),
+            Some(1e9),
+        )
+        .unwrap();
+        assert_eq!(
+            reached.fitted.byte_size_f32(),
+            fitted.byte_size_f32(),
+            "{}",
+            reached.describe()
+        );
+        assert!(!reached.shell);
+        let missed =
+            choose_evaluation_cut(&validator, &glossy, fitted.clone(), errors, Some(1e-9)).unwrap();
+        assert!((missed.errors.worst_mean() - lowest).abs() < 1e-12);
         // A fit that already has a cut keeps it, with or without the shell.
         let mut within = fitted;
         within.reduction = within.reduction.with_max_elevation(75.0);
         let errors = validator
             .measure(Arc::new(crate::FitInDomain::new(within.clone())))
             .unwrap();
-        let kept = choose_evaluation_cut(&validator, &glossy, within.clone(), errors).unwrap();
-        assert_eq!(kept.tried.len(), 2);
-        assert_eq!((kept.tried[1].cut, kept.tried[1].shell), (Some(75.0), true));
+        let kept =
+            choose_evaluation_cut(&validator, &glossy, within.clone(), errors, None).unwrap();
+        assert_eq!(kept.tried.len(), 1 + shells);
+        for t in &kept.tried[1..] {
+            assert_eq!((t.cut, t.shell), (Some(75.0), true));
+        }
         assert_eq!(kept.fitted.reduction, within.reduction);
         if kept.shell {
             assert_eq!(kept.cut, Some(75.0));
+            let bytes = kept.fitted.shell.as_ref().unwrap().byte_size_f32();
             assert!(kept
                 .describe()
-                .contains("75 degrees and a shell factor of 128 bytes"));
+                .contains(&format!("75 degrees and a shell factor of {bytes} bytes")));
         } else {
             assert_eq!(kept.cut, None);
             assert!(kept.describe().contains("the fit's own cut of 75 degrees"));
@@ -248,12 +310,44 @@ mod tests {
         // With its shell it is measured as it is.
         let shelled = within
             .clone()
-            .with_shell(ShellFactor::fit(&glossy, &within, DEFAULT_SHELL_BINS).unwrap())
+            .with_shell(ShellFactor::fit(&glossy, &within, brdf::DEFAULT_SHELL_BINS).unwrap())
             .unwrap();
         let errors = validator
             .measure(Arc::new(crate::FitInDomain::new(shelled.clone())))
             .unwrap();
-        let kept = choose_evaluation_cut(&validator, &glossy, shelled, errors).unwrap();
-        assert_eq!((kept.cut, kept.tried.len()), (None, 1));
+        let kept = choose_evaluation_cut(&validator, &glossy, shelled, errors, None).unwrap();
+        assert_eq!((kept.cut, kept.shell, kept.tried.len()), (None, true, 1));
+        assert!(kept
+            .describe()
+            .contains("own cut of 75 degrees and its shell factor"));
+    }
+
+    fn tried(worst_mean_de: f64, bytes: usize) -> CutTried {
+        CutTried {
+            cut: Some(70.0),
+            shell: true,
+            shell_bins: Some([4, 4]),
+            bytes,
+            worst_mean_de,
+        }
+    }
+
+    #[test]
+    fn a_target_prefers_the_smallest_evaluation_that_reaches_it() {
+        let list = [
+            tried(1.4, 960),
+            tried(1.1, 1088),
+            tried(0.97, 1024),
+            tried(0.95, 1088),
+        ];
+        // Without a target, or one none reaches: the lowest error.
+        assert_eq!(preferred(&list, None), 3);
+        assert_eq!(preferred(&list, Some(0.5)), 3);
+        // The smallest that reaches it; the lower error between equal sizes.
+        assert_eq!(preferred(&list, Some(1.0)), 2);
+        assert_eq!(preferred(&list, Some(1.2)), 2);
+        assert_eq!(preferred(&list, Some(1.5)), 0);
+        // Equal errors: the fewer bytes.
+        assert_eq!(preferred(&[tried(1.0, 1088), tried(1.0, 1024)], None), 1);
     }
 }

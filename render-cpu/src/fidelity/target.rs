@@ -272,7 +272,8 @@ fn search_tolerances(
             }
         };
         let errors = validator.measure(Arc::new(crate::scene::FitInDomain::new(fitted.clone())))?;
-        let choice = choose_evaluation_cut(validator, table.as_ref(), fitted, errors)?;
+        let choice =
+            choose_evaluation_cut(validator, table.as_ref(), fitted, errors, Some(target_de))?;
         let (fitted, errors) = (choice.fitted, choice.errors);
         let worst = errors.worst_mean();
         search.tried.push(TargetAttempt {
