@@ -288,6 +288,9 @@ pub fn fit_to_json(args: &FitArgs) -> Result<serde_json::Value> {
         }
         if let (Some(p), Some(r)) = (&peak, &render) {
             println!("{}", describe_render(r));
+            if let Some(split) = &r.colour_split {
+                println!("{}", split.describe("the fit"));
+            }
             println!("{p}");
         }
     }

@@ -904,6 +904,13 @@ fn the_render_check_of_a_perceptual_fit_chooses_its_evaluation_cut() {
         line.contains(&format!("renders: {named} (")),
         "{got}: {line}"
     );
+    // The render check also gives the part of its error the luminance and
+    // the colour each cause.
+    assert!(stdout.contains("error by part (mean CIEDE2000, lights / sky)"));
+    for part in ["luminance_mean_de", "colour_mean_de"] {
+        let v = json["render"]["colour_split"][part].as_array().unwrap();
+        assert!(v.len() == 2 && v.iter().all(|e| e.as_f64().unwrap() >= 0.0));
+    }
     // The file records every evaluation measured and the choice.
     assert_eq!(
         json["evaluation_cut"]["tried"].as_array().unwrap().len(),

@@ -36,6 +36,10 @@ def test_fit_reports_what_it_reached(fitted):
     # The default render check: both validation scenes, finite errors.
     scenes = r["render"]["scenes"]
     assert len(scenes) == 2 and all(0 <= s["mean_de"] < 30 for s in scenes)
+    # With the part of it the luminance and the colour each cause.
+    split = r["render"]["colour_split"]
+    for part in ("luminance_mean_de", "colour_mean_de"):
+        assert len(split[part]) == 2 and all(0 <= e < 30 for e in split[part])
     # The coefficients and the ceiling (three f32) on the RGB values.
     assert fitted.nbytes == 4 * fitted.coefficients + 12
     ceiling = json.loads(fitted.to_json())["brdf"]["ceiling"]

@@ -29,10 +29,12 @@ use std::sync::Arc;
 use std::time::Instant;
 
 mod cut;
+mod split;
 mod target;
 pub use cut::{
     choose_evaluation_cut, render_check_choosing_cut, CutChoice, CutTried, EVALUATION_CUTS,
 };
+pub use split::{colour_split, ColourSplit};
 pub use target::{fit_to_target, GridFloor, TargetAttempt, TargetReduction, TargetReport};
 
 /// The two validation scenes.
@@ -136,6 +138,10 @@ pub struct RenderErrors {
     pub images: Vec<Image>,
     /// Render time in seconds (both scenes).
     pub seconds: f64,
+    /// Which part of the error is the luminance's and which the colour's,
+    /// when measured ([`colour_split`]; the render checks measure it).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub colour_split: Option<ColourSplit>,
 }
 
 impl RenderErrors {
@@ -371,6 +377,7 @@ impl Validator {
             scenes,
             images,
             seconds: start.elapsed().as_secs_f64(),
+            colour_split: None,
         })
     }
 }
@@ -385,8 +392,9 @@ pub const RENDER_CHECK: ValidationSettings = ValidationSettings {
 };
 
 /// A fit's render errors against its table on the validation scenes at
-/// [`RENDER_CHECK`]'s size (images dropped): what a user judges, measured
-/// in seconds.
+/// [`RENDER_CHECK`]'s size (images dropped), with the part its luminance
+/// and its colour each cause ([`colour_split`]): what a user judges,
+/// measured in seconds.
 ///
 /// # Errors
 /// As [`Validator::new`] and [`Validator::measure`].
@@ -394,9 +402,11 @@ pub fn render_check(
     table: Arc<dyn Brdf>,
     fitted: &brdf::FittedBrdf,
 ) -> Result<RenderErrors, RenderError> {
-    let validator = Validator::new(table, RENDER_CHECK)?;
-    let mut errors = validator.measure(Arc::new(crate::FitInDomain::new(fitted.clone())))?;
+    let validator = Validator::new(table.clone(), RENDER_CHECK)?;
+    let candidate: Arc<dyn Brdf> = Arc::new(crate::FitInDomain::new(fitted.clone()));
+    let mut errors = validator.measure(candidate.clone())?;
     errors.images.clear();
+    errors.colour_split = Some(colour_split(&validator, table, candidate)?);
     Ok(errors)
 }
 

@@ -189,7 +189,8 @@ pub fn choose_evaluation_cut(
 }
 
 /// [`super::render_check`] with the evaluation cut chosen
-/// ([`choose_evaluation_cut`]) on the same renders.
+/// ([`choose_evaluation_cut`]) on the same renders; the chosen
+/// evaluation's errors carry its [`super::colour_split`].
 ///
 /// # Errors
 /// As [`Validator::new`] and [`Validator::measure`].
@@ -201,6 +202,8 @@ pub fn render_check_choosing_cut(
     let errors = validator.measure(Arc::new(crate::FitInDomain::new(fitted.clone())))?;
     let mut choice = choose_evaluation_cut(&validator, table.as_ref(), fitted, errors, None)?;
     choice.errors.images.clear();
+    let chosen: Arc<dyn Brdf> = Arc::new(crate::FitInDomain::new(choice.fitted.clone()));
+    choice.errors.colour_split = Some(super::colour_split(&validator, table, chosen)?);
     Ok(choice)
 }
 

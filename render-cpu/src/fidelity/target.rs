@@ -82,6 +82,10 @@ pub struct TargetReport {
     /// When the target is not reached by a 3-D fit: what the table itself
     /// renders at on the grid that fit samples (see [`GridFloor`]).
     pub grid_floor: Option<GridFloor>,
+    /// When the target is not reached: the render error of the fit's
+    /// luminance alone and of its colour alone ([`super::colour_split`]),
+    /// which says which functions to improve.
+    pub colour_split: Option<super::ColourSplit>,
     /// Every fit tried, in order.
     pub tried: Vec<TargetAttempt>,
     /// Total time in seconds (fits and renders).
@@ -138,6 +142,9 @@ impl std::fmt::Display for TargetReport {
                     ""
                 }
             )?;
+        }
+        if let Some(split) = &self.colour_split {
+            writeln!(f, "  {}", split.describe("the fit"))?;
         }
         for a in &self.tried {
             match a.result {
@@ -417,10 +424,17 @@ pub fn fit_to_target(
     } else {
         None
     };
+    let colour_split = if reached {
+        None
+    } else {
+        let candidate: Arc<dyn Brdf> = Arc::new(crate::scene::FitInDomain::new(fitted.clone()));
+        Some(super::colour_split(&validator, table.clone(), candidate)?)
+    };
     let report = TargetReport {
         target_de,
         reached,
         grid_floor,
+        colour_split,
         dims: fitted.reduction.dims(),
         why,
         rel_tol,
