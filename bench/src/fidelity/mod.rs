@@ -397,6 +397,16 @@ fn post_cut_variants(fitted: &brdf::FittedBrdf, cuts: &[f64]) -> Vec<(f64, brdf:
         .collect()
 }
 
+/// The suffix of a shell factor's row after `, shell factor`: none for the
+/// default bins, ` NH x ND` for others.
+fn shell_row_suffix([nh, nd]: [usize; 2]) -> String {
+    if [nh, nd] == brdf::DEFAULT_SHELL_BINS {
+        String::new()
+    } else {
+        format!(" {nh} x {nd}")
+    }
+}
+
 /// The rows of `within` (a fit evaluated within an elevation cut) times its
 /// shell factor beyond the cut ([`brdf::ShellFactor`], fitted to the table
 /// here at each of [`brdf::SHELL_BIN_CHOICES`]; its time is added to the
@@ -422,11 +432,7 @@ fn measure_with_shells(
             })?;
         let shell_s = start.elapsed().as_secs_f64();
         let [nh, nd] = bins;
-        let suffix = if bins == brdf::DEFAULT_SHELL_BINS {
-            String::new()
-        } else {
-            format!(" {nh} x {nd}")
-        };
+        let suffix = shell_row_suffix(bins);
         rows.push(measure(
             judge,
             Candidate {

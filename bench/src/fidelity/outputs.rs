@@ -1,7 +1,7 @@
 //! What `bench fidelity` writes and checks: `results.csv`, `summary.md`,
 //! the error-against-bytes chart and the images of each representation.
 
-use super::{FidelityArgs, Row};
+use super::{shell_row_suffix, FidelityArgs, Row};
 use crate::chart::{pareto_front, Figure, Panel};
 use crate::summary::utc_date;
 use anyhow::Result;
@@ -282,12 +282,11 @@ pub(super) fn check(out: &Path, rows: &[Row], noise: &[(String, Vec<f64>)]) -> V
                 && !r.representation.contains(", shell factor")
         }) {
             for [nh, nd] in brdf::SHELL_BIN_CHOICES {
-                let suffix = if [nh, nd] == brdf::DEFAULT_SHELL_BINS {
-                    String::new()
-                } else {
-                    format!(" {nh} x {nd}")
-                };
-                let name = format!("{}, shell factor{suffix}", plain.representation);
+                let name = format!(
+                    "{}, shell factor{}",
+                    plain.representation,
+                    shell_row_suffix([nh, nd])
+                );
                 match reps.iter().find(|r| r.representation == name) {
                     Some(r) if r.bytes == plain.bytes + 4 * nh * nd => {}
                     Some(r) => problems.push(format!(
