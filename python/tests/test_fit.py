@@ -182,7 +182,7 @@ def test_ctrl_c_interrupts_a_long_fit():
     # Thousands of splits of a tight fit (about 8.6 s uninterrupted on two
     # cores); SIGINT arrives after 0.5 s. It is sent again every 0.5 s
     # while the call runs: once in CI (2026-12-04) the first signal did not
-    # stop the fit, which ran to its end, and nine reruns (idle and under
+    # stop the fit, which ran to its end, and ten reruns (idle and under
     # load) did not repeat it. What is checked is that Ctrl-C stops the fit
     # long before its end.
     x = np.linspace(-1, 1, 20000)
