@@ -85,7 +85,7 @@ pub struct FitArgs {
     /// perceptual fit (whole hemisphere) whose validation renders (a sphere
     /// under three directional lights and under a sky) reach this mean
     /// CIEDE2000 against the table; the 2-D slice first, then 3-D (grid
-    /// from `--resolution`, else 24^3) unless `--dims` fixes one. MERL and
+    /// from `--resolution`, else 16^3) unless `--dims` fixes one. MERL and
     /// RGL files only.
     #[arg(long, conflicts_with_all = ["perceptual", "spread"], value_parser = crate::args::positive)]
     target_de: Option<f64>,
@@ -360,10 +360,12 @@ fn run_fit_target(
         .whole_hemisphere();
     reduction = within_cut(reduction, args);
     if args.resolution.is_none() {
+        let [n_h, n_d] = render_cpu::fidelity::TARGET_SLICE;
+        let [g_h, g_d, g_p] = render_cpu::fidelity::TARGET_GRID_3D;
         reduction = if slice_only {
-            reduction.with_resolution(90, 90)
+            reduction.with_resolution(n_h, n_d)
         } else {
-            reduction.with_resolution(24, 24).with_phi_resolution(24)
+            reduction.with_resolution(g_h, g_d).with_phi_resolution(g_p)
         };
     }
     let material: std::sync::Arc<dyn Brdf> = load_material(&args.material, &args.format)?.into();

@@ -919,3 +919,38 @@ fn the_render_check_of_a_perceptual_fit_chooses_its_evaluation_cut() {
     let chosen = json["evaluation_cut"]["chosen"].as_f64().unwrap_or(90.0);
     assert!((chosen - got).abs() < 1e-12, "{chosen} against {got}");
 }
+
+#[test]
+fn a_target_fit_samples_the_shared_3d_grid_and_reports_what_it_reached() {
+    let dir = scratch("target-grid");
+    let merl = blinn_phong_merl(&dir);
+    let fit = dir.join("fit.json");
+    // A target no fit reaches within a one-second budget: one tolerance is
+    // tried, on the grid `--target-de` uses when `--resolution` is not given.
+    let out = ratfit()
+        .arg("fit")
+        .arg(&merl)
+        .args(["--format", "merl", "--target-de", "0.001", "--dims", "3"])
+        .args(["--time-budget", "1", "-o"])
+        .arg(&fit)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(stdout.contains("NOT reached"), "{stdout}");
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&fit).unwrap()).unwrap();
+    let r = &json["brdf"]["reduction"];
+    let bins = ["n_theta_h", "n_theta_d", "n_phi_d"].map(|k| r[k].as_u64().unwrap() as usize);
+    assert_eq!(bins, render_cpu::fidelity::TARGET_GRID_3D, "{r}");
+    assert_eq!(json["target"]["reached"], false);
+    assert_eq!(
+        json["target"]["grid_floor"]["bins"],
+        serde_json::json!(render_cpu::fidelity::TARGET_GRID_3D)
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -291,7 +291,7 @@ impl BrdfOptions {
     }
 
     /// The reduction of a fit at fixed intervals, or the base reduction of
-    /// `target_de` (the whole hemisphere; 24^3 in 3-D, 90^2 in 2-D unless
+    /// `target_de` (the whole hemisphere; 16^3 in 3-D, 90^2 in 2-D unless
     /// `resolution` says).
     pub fn reduction(&self) -> PyResult<Reduction> {
         let kind = match (self.dims.unwrap_or(2), self.spread) {
@@ -330,10 +330,12 @@ impl BrdfOptions {
                 r = r.with_max_elevation(degrees);
             }
             if self.resolution.is_none() {
+                let [n_h, n_d] = render_cpu::fidelity::TARGET_SLICE;
+                let [g_h, g_d, g_p] = render_cpu::fidelity::TARGET_GRID_3D;
                 r = if three {
-                    r.with_resolution(24, 24).with_phi_resolution(24)
+                    r.with_resolution(g_h, g_d).with_phi_resolution(g_p)
                 } else {
-                    r.with_resolution(90, 90)
+                    r.with_resolution(n_h, n_d)
                 };
             }
         } else if kind == ReductionKind::Full3d {

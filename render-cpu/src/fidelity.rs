@@ -35,7 +35,10 @@ pub use cut::{
     choose_evaluation_cut, render_check_choosing_cut, CutChoice, CutTried, EVALUATION_CUTS,
 };
 pub use split::{colour_split, ColourSplit};
-pub use target::{fit_to_target, GridFloor, TargetAttempt, TargetReduction, TargetReport};
+pub use target::{
+    fit_to_target, GridFloor, TargetAttempt, TargetReduction, TargetReport, TARGET_GRID_3D,
+    TARGET_SLICE,
+};
 
 /// The two validation scenes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]

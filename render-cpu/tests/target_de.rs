@@ -67,11 +67,14 @@ fn a_target_de_scene_renders_a_glossy_rgl_file() {
         .all(|p| p.iter().all(|v| v.is_finite())));
 }
 
-/// A target below what the 3-D grid keeps is reported as such: the report
-/// gives the table's own error on that grid, and only when the target is
-/// missed.
-#[test]
-fn a_missed_target_reports_what_the_grid_itself_renders_at() {
+/// The report of a target fit of a glossy Blinn-Phong material on a
+/// `bins` 3-D grid within `max_coeffs` coefficients per function,
+/// validated on tiny renders.
+fn glossy_target_report(
+    target: f64,
+    bins: [usize; 3],
+    max_coeffs: usize,
+) -> render_cpu::fidelity::TargetReport {
     use brdf::{BlinnPhong, BrdfFitSettings, PerceptualBounds, Reduction, ReductionKind};
     use render_cpu::fidelity::{fit_to_target, TargetReduction, ValidationSettings};
     use std::sync::Arc;
@@ -82,8 +85,8 @@ fn a_missed_target_reports_what_the_grid_itself_renders_at() {
     });
     let reduction = Reduction::default()
         .with_kind(ReductionKind::Full3d)
-        .with_resolution(5, 5)
-        .with_phi_resolution(4)
+        .with_resolution(bins[0], bins[1])
+        .with_phi_resolution(bins[2])
         .whole_hemisphere();
     let settings = BrdfFitSettings::default()
         .with_reduction(reduction)
@@ -91,7 +94,7 @@ fn a_missed_target_reports_what_the_grid_itself_renders_at() {
         .with_design(PerceptualBounds::default())
         .with_fit_settings(
             rational_core::FitSettings::default()
-                .with_coeff_range(2, 30)
+                .with_coeff_range(2, max_coeffs)
                 .unwrap(),
         );
     let validation = ValidationSettings {
@@ -100,19 +103,24 @@ fn a_missed_target_reports_what_the_grid_itself_renders_at() {
         sky_spp: 4,
         seed: 1,
     };
-    let run = |target: f64| {
-        fit_to_target(
-            glossy.clone(),
-            target,
-            &settings,
-            TargetReduction::Fixed,
-            validation,
-            60.0,
-        )
-        .unwrap()
-        .1
-    };
-    let missed = run(1e-3);
+    fit_to_target(
+        glossy,
+        target,
+        &settings,
+        TargetReduction::Fixed,
+        validation,
+        60.0,
+    )
+    .unwrap()
+    .1
+}
+
+/// A target below what the 3-D grid keeps is reported as such: the report
+/// gives the table's own error on that grid, and only when the target is
+/// missed.
+#[test]
+fn a_missed_target_reports_what_the_grid_itself_renders_at() {
+    let missed = glossy_target_report(1e-3, [5, 5, 4], 30);
     assert!(!missed.reached);
     let floor = missed
         .grid_floor
@@ -123,6 +131,36 @@ fn a_missed_target_reports_what_the_grid_itself_renders_at() {
         "{floor:?}"
     );
     assert!(missed.to_string().contains("5 x 5 x 4 grid"), "{missed}");
-    let reached = run(1e3);
+    let reached = glossy_target_report(1e3, [5, 5, 4], 30);
     assert!(reached.reached && reached.grid_floor.is_none());
+}
+
+/// A tolerance with no fit within the budget is widened by sqrt 2, channel
+/// by channel, at most twice: each attempt reports 1, 1.41 or 2, and a
+/// budget that only misses a little lands at 1.41 rather than 2.
+#[test]
+fn target_fits_widen_by_sqrt_2_at_most_twice() {
+    let widened: Vec<f64> = (4..=10)
+        .flat_map(|max_coeffs| {
+            glossy_target_report(1e-3, [6, 6, 4], max_coeffs)
+                .tried
+                .iter()
+                .filter(|a| a.result.is_some())
+                .map(|a| a.widened)
+                .collect::<Vec<_>>()
+        })
+        .collect();
+    let allowed = [1.0, std::f64::consts::SQRT_2, 2.0];
+    for w in &widened {
+        assert!(
+            allowed.iter().any(|a| (w / a - 1.0).abs() < 1e-9),
+            "widened x{w}: {widened:?}"
+        );
+    }
+    assert!(
+        widened
+            .iter()
+            .any(|w| (w / std::f64::consts::SQRT_2 - 1.0).abs() < 1e-9),
+        "no fit landed at x1.41: {widened:?}"
+    );
 }

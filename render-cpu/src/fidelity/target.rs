@@ -154,7 +154,7 @@ impl std::fmt::Display for TargetReport {
                     a.dims,
                     a.rel_tol * 100.0,
                     if a.widened > 1.0 {
-                        format!(" (widened x{})", a.widened)
+                        format!(" (widened x{})", brdf::scale_text(a.widened))
                     } else {
                         String::new()
                     },
@@ -190,6 +190,16 @@ impl Search {
     }
 }
 
+/// Bins (`theta_h`, `theta_d`, `phi_d`) of the 3-D grid a target fit
+/// samples unless its caller names one. A finer grid renders closer as a
+/// table, but its fits need more coefficients at the same intervals and are
+/// widened sooner: on the RGL files a 16^3 grid reaches lower errors in
+/// fewer bytes than 24^3 (docs/results/fidelity-2026-12-04-target-grid.md).
+pub const TARGET_GRID_3D: [usize; 3] = [16, 16, 16];
+
+/// Bins (`theta_h`, `theta_d`) of the 2-D slice a target fit samples.
+pub const TARGET_SLICE: [usize; 2] = [90, 90];
+
 /// Tolerances tried, loosest first.
 const TOLERANCES: [f64; 4] = [0.16, 0.08, 0.04, 0.02];
 
@@ -197,14 +207,25 @@ const TOLERANCES: [f64; 4] = [0.16, 0.08, 0.04, 0.02];
 /// feasible within the coefficient budget.
 const LOOSER: [f64; 2] = [0.32, 0.64];
 
+/// Each widening of a target fit's intervals. Channels widen one by one
+/// (the staircase's search runs per channel), so a channel that misses its
+/// tolerance lands at 1.41 times it rather than 2, and the others keep
+/// theirs.
+const WIDEN_STEP: f64 = std::f64::consts::SQRT_2;
+
+/// Widenings allowed, to at most twice the tolerance ([`WIDEN_STEP`]
+/// squared).
+const MAX_WIDENINGS: usize = 2;
+
 /// Tries tolerances with `settings`' reduction, loosest first, until one
 /// reaches the target, `deadline` passes (checked between fits), a
 /// tolerance has no fit within the coefficient budget (tighter ones would
 /// not either), or, with `stop_at_floor`, a tighter tolerance improves the
 /// error by less than 10% (the reduction's own error dominates). When even
-/// the loosest has no fit, looser ones follow. A tolerance's intervals
-/// are widened at most once (x2, reported): widened further, a perceptual
-/// design's floors and caps stop meaning anything.
+/// the loosest has no fit, looser ones follow. A channel's intervals are
+/// widened by [`WIDEN_STEP`] at most [`MAX_WIDENINGS`] times (reported):
+/// widened further, a perceptual design's floors and caps stop meaning
+/// anything.
 fn search_tolerances(
     validator: &Validator,
     table: &Arc<dyn Brdf>,
@@ -219,7 +240,7 @@ fn search_tolerances(
     let engine = settings
         .fit_settings()
         .clone()
-        .with_widening(2.0, 1)
+        .with_widening(WIDEN_STEP, MAX_WIDENINGS)
         .map_err(|e| crate::error::invalid("fit settings", e.to_string()))?;
     let mut search = Search {
         best: None,
@@ -352,7 +373,7 @@ pub fn fit_to_target(
         let r = base
             .reduction()
             .with_kind(brdf::ReductionKind::Slice2d)
-            .with_resolution(90, 90)
+            .with_resolution(TARGET_SLICE[0], TARGET_SLICE[1])
             .whole_hemisphere();
         let settings = base.clone().with_reduction(r);
         let s = search_tolerances(

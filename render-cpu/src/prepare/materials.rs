@@ -311,19 +311,21 @@ impl MaterialBuilder<'_> {
 }
 
 /// A scene's `target_de` fit: luminance-chroma over the whole hemisphere
-/// (or within `max_elevation`), the 2-D slice first and a 16^3 grid when
-/// the slice cannot reach the target, validated at 64 x 64 pixels within
-/// 60 s; returns the fit and what it reached.
+/// (or within `max_elevation`), the 2-D slice first and the grid of
+/// [`crate::fidelity::TARGET_GRID_3D`] when the slice cannot reach the
+/// target, validated at 64 x 64 pixels within 60 s; returns the fit and
+/// what it reached.
 fn fit_for_target(
     src: &Arc<dyn Brdf>,
     target: f64,
     settings: BrdfFitSettings,
     max_elevation: Option<f64>,
 ) -> Result<(FittedBrdf, String), RenderError> {
+    let [n_h, n_d, n_p] = crate::fidelity::TARGET_GRID_3D;
     let grid = Reduction::default()
         .with_kind(ReductionKind::Full3d)
-        .with_resolution(16, 16)
-        .with_phi_resolution(16)
+        .with_resolution(n_h, n_d)
+        .with_phi_resolution(n_p)
         .whole_hemisphere();
     let grid = match max_elevation {
         Some(degrees) => grid.with_max_elevation(degrees),
