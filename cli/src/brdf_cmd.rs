@@ -360,13 +360,7 @@ fn run_fit_target(
         .whole_hemisphere();
     reduction = within_cut(reduction, args);
     if args.resolution.is_none() {
-        let [n_h, n_d] = render_cpu::fidelity::TARGET_SLICE;
-        let [g_h, g_d, g_p] = render_cpu::fidelity::TARGET_GRID_3D;
-        reduction = if slice_only {
-            reduction.with_resolution(n_h, n_d)
-        } else {
-            reduction.with_resolution(g_h, g_d).with_phi_resolution(g_p)
-        };
+        reduction = render_cpu::fidelity::on_target_grid(reduction);
     }
     let material: std::sync::Arc<dyn Brdf> = load_material(&args.material, &args.format)?.into();
     let colour = args.colour.unwrap_or(brdf::ColourMode::LuminanceChroma);

@@ -330,13 +330,7 @@ impl BrdfOptions {
                 r = r.with_max_elevation(degrees);
             }
             if self.resolution.is_none() {
-                let [n_h, n_d] = render_cpu::fidelity::TARGET_SLICE;
-                let [g_h, g_d, g_p] = render_cpu::fidelity::TARGET_GRID_3D;
-                r = if three {
-                    r.with_resolution(g_h, g_d).with_phi_resolution(g_p)
-                } else {
-                    r.with_resolution(n_h, n_d)
-                };
+                r = render_cpu::fidelity::on_target_grid(r);
             }
         } else if kind == ReductionKind::Full3d {
             // The full MERL grid is 1.46 M cells per channel: a 45^3 subgrid.

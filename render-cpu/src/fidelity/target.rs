@@ -200,6 +200,19 @@ pub const TARGET_GRID_3D: [usize; 3] = [16, 16, 16];
 /// Bins (`theta_h`, `theta_d`) of the 2-D slice a target fit samples.
 pub const TARGET_SLICE: [usize; 2] = [90, 90];
 
+/// `reduction` on the grid a target fit samples unless its caller names
+/// one: [`TARGET_GRID_3D`] for a 3-D reduction, [`TARGET_SLICE`] for a 2-D
+/// one.
+pub fn on_target_grid(reduction: brdf::Reduction) -> brdf::Reduction {
+    if reduction.kind == brdf::ReductionKind::Full3d {
+        let [h, d, p] = TARGET_GRID_3D;
+        reduction.with_resolution(h, d).with_phi_resolution(p)
+    } else {
+        let [h, d] = TARGET_SLICE;
+        reduction.with_resolution(h, d)
+    }
+}
+
 /// Tolerances tried, loosest first.
 const TOLERANCES: [f64; 4] = [0.16, 0.08, 0.04, 0.02];
 
@@ -207,10 +220,9 @@ const TOLERANCES: [f64; 4] = [0.16, 0.08, 0.04, 0.02];
 /// feasible within the coefficient budget.
 const LOOSER: [f64; 2] = [0.32, 0.64];
 
-/// Each widening of a target fit's intervals. Channels widen one by one
-/// (the staircase's search runs per channel), so a channel that misses its
-/// tolerance lands at 1.41 times it rather than 2, and the others keep
-/// theirs.
+/// Each widening of a target fit's intervals. Each function is fitted on
+/// its own, so only one that misses its tolerance is widened, and it lands
+/// at 1.41 times the tolerance rather than 2.
 const WIDEN_STEP: f64 = std::f64::consts::SQRT_2;
 
 /// Widenings allowed, to at most twice the tolerance ([`WIDEN_STEP`]
@@ -370,11 +382,11 @@ pub fn fit_to_target(
     let mut tried = Vec::new();
     let mut slice: Option<Search> = None;
     if reduction == TargetReduction::Auto {
-        let r = base
-            .reduction()
-            .with_kind(brdf::ReductionKind::Slice2d)
-            .with_resolution(TARGET_SLICE[0], TARGET_SLICE[1])
-            .whole_hemisphere();
+        let r = on_target_grid(
+            base.reduction()
+                .with_kind(brdf::ReductionKind::Slice2d)
+                .whole_hemisphere(),
+        );
         let settings = base.clone().with_reduction(r);
         let s = search_tolerances(
             &validator,

@@ -321,12 +321,11 @@ fn fit_for_target(
     settings: BrdfFitSettings,
     max_elevation: Option<f64>,
 ) -> Result<(FittedBrdf, String), RenderError> {
-    let [n_h, n_d, n_p] = crate::fidelity::TARGET_GRID_3D;
-    let grid = Reduction::default()
-        .with_kind(ReductionKind::Full3d)
-        .with_resolution(n_h, n_d)
-        .with_phi_resolution(n_p)
-        .whole_hemisphere();
+    let grid = crate::fidelity::on_target_grid(
+        Reduction::default()
+            .with_kind(ReductionKind::Full3d)
+            .whole_hemisphere(),
+    );
     let grid = match max_elevation {
         Some(degrees) => grid.with_max_elevation(degrees),
         None => grid,
