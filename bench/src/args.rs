@@ -113,6 +113,18 @@ pub fn coefficients(s: &str) -> Result<usize, String> {
     }
 }
 
+/// A byte budget of a fit: `8..=2^30` (two f32 coefficients at least).
+pub fn max_bytes(s: &str) -> Result<usize, String> {
+    let v = count(s, 1 << 30)?;
+    if v >= 8 {
+        Ok(v)
+    } else {
+        Err(format!(
+            "{v} bytes cannot hold a rational function (at least 2 coefficients of 4 bytes)"
+        ))
+    }
+}
+
 /// Bin counts of a BRDF grid (a type of its own: clap reads a `Vec` field
 /// as a repeated flag).
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -152,6 +164,8 @@ mod tests {
         assert!(samples("0").is_err() && samples("18446744073709551615").is_err());
         assert!(spp("1000000000000").is_err() && spp("16").is_ok());
         assert!(coefficients("1").is_err() && coefficients("60").is_ok());
+        assert!(max_bytes("4").is_err() && max_bytes("2000000000").is_err());
+        assert_eq!(max_bytes("1024"), Ok(1024));
         assert!(bins("100000,100000").is_err());
         assert!(bins("24,24,24,24").is_err());
         assert!(bins("24").is_err());

@@ -93,6 +93,12 @@ pub struct FitArgs {
     /// returns the best fit so far.
     #[arg(long, default_value_t = 120.0, value_parser = crate::args::positive)]
     time_budget: f64,
+    /// With `--target-de`: the most bytes (f32, a shell factor included)
+    /// the fit returned may have. Fits over it are tried and listed, never
+    /// returned; a tolerance whose fit passes it is followed by looser ones.
+    /// Default: no limit (the target decides the size).
+    #[arg(long, requires = "target_de", value_parser = crate::args::max_bytes)]
+    max_bytes: Option<usize>,
     /// Degree weights of the basis order, one per fitting coordinate
     /// (`theta_h,theta_d[,phi_d]`): `1,2` spends twice the degree on
     /// `theta_h` as on `theta_d` for the same budget. Default: all 1.
@@ -385,16 +391,21 @@ fn run_fit_target(
         &settings,
         mode,
         render_cpu::fidelity::ValidationSettings::default(),
-        args.time_budget,
+        render_cpu::fidelity::TargetBudget::seconds(args.time_budget).with_bytes(args.max_bytes),
     );
     crate::progress::finish();
     let (fitted, target_report) = fitted?;
     println!(
-        "{}: {} coefficients, {} bytes (f32), {}-D perceptual fit over the whole hemisphere",
+        "{}: {} coefficients, {} bytes (f32), {}-D perceptual fit {}",
         fitted.name,
         fitted.coefficients(),
         fitted.byte_size_f32(),
-        fitted.reduction.dims()
+        fitted.reduction.dims(),
+        target_report
+            .fitted_within
+            .map_or("over the whole hemisphere".to_string(), |c| format!(
+                "within {c} degrees of the normal"
+            ))
     );
     println!("{target_report}");
     let peak = peak_check(material.as_ref(), &fitted);

@@ -222,6 +222,8 @@ fn bad_input_gives_clear_errors() {
         ("rgl", "--resolution", "24,24,24,24", "two or three"),
         ("rgl", "--max-coeffs", "1", "at least 2"),
         ("rgl", "--target-de", "0", "positive"),
+        ("rgl", "--max-bytes", "4", "cannot hold"),
+        ("rgl", "--max-bytes", "1024", "--target-de"),
         ("rgl", "--cap-rounds", "17", "outside 0..=16"),
         ("rgl", "--widen-factor", "0", "must be positive"),
         ("rgl", "--widen-factor", "1", "--widen-factor 1"),

@@ -59,6 +59,7 @@ BRDF_OPTIONS = (
     "max_widenings",
     "target_de",
     "time_budget",
+    "max_bytes",
     "degree_weights",
     "perceptual",
     "cap_rounds",
@@ -162,6 +163,8 @@ def fit_brdf(path: str, format: Optional[str] = None, **options: Any) -> FittedM
             split, for the same fits on real materials in several times the
             time), ``target_de`` (the smallest fit whose
             validation renders reach that mean CIEDE2000), ``time_budget``,
+            ``max_bytes`` (with ``target_de``: the most bytes the fit
+            returned may have; fits over it are tried, never returned),
             ``render_check`` (default True: render the fit beside the table
             on the two validation scenes and report the CIEDE2000 reached).
 

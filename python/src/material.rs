@@ -10,7 +10,7 @@ use numpy::{AllowTypeChange, PyArray2, PyArrayLikeDyn};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict, PyTuple};
-use render_cpu::fidelity::{fit_to_target, TargetReduction, ValidationSettings};
+use render_cpu::fidelity::{fit_to_target, TargetBudget, TargetReduction, ValidationSettings};
 use std::path::Path;
 use std::sync::Arc;
 
@@ -158,7 +158,7 @@ pub fn fit_brdf(
                 &settings,
                 mode,
                 ValidationSettings::default(),
-                o.time_budget,
+                TargetBudget::seconds(o.time_budget).with_bytes(o.max_bytes),
             )
             .map_err(Failure::Render)?;
             extra.insert(

@@ -90,6 +90,8 @@ pub(crate) struct BrdfOptions {
     pub max_widenings: usize,
     pub target_de: Option<f64>,
     pub time_budget: f64,
+    /// With `target_de`: the most bytes the fit returned may have.
+    pub max_bytes: Option<usize>,
     pub degree_weights: Vec<u16>,
     pub perceptual: bool,
     pub cap_rounds: usize,
@@ -117,6 +119,7 @@ impl Default for BrdfOptions {
             max_widenings: 6,
             target_de: None,
             time_budget: 120.0,
+            max_bytes: None,
             degree_weights: Vec::new(),
             perceptual: false,
             cap_rounds: 2,
@@ -130,7 +133,7 @@ impl Default for BrdfOptions {
 /// The option names, for the error that refuses another.
 const OPTION_NAMES: &str = "format, dims, spread, coords, rel_tol, noise_floor, max_coeffs, \
      max_theta_d, max_elevation, resolution, backend, poles, search, max_widenings, target_de, \
-     time_budget, degree_weights, perceptual, cap_rounds, colour, lobe, render_check";
+     time_budget, max_bytes, degree_weights, perceptual, cap_rounds, colour, lobe, render_check";
 
 fn bad(name: &str, reason: impl std::fmt::Display) -> PyErr {
     PyValueError::new_err(format!("option `{name}`: {reason}"))
@@ -212,6 +215,16 @@ impl BrdfOptions {
                 "max_widenings" => o.max_widenings = get(n, &v)?,
                 "target_de" => o.target_de = Some(positive(n, get(n, &v)?)?),
                 "time_budget" => o.time_budget = positive(n, get(n, &v)?)?,
+                "max_bytes" => {
+                    let b: usize = get(n, &v)?;
+                    if !(8..=1 << 30).contains(&b) {
+                        return Err(bad(
+                            n,
+                            format!("{b} is outside 8..=2^30 (two f32 coefficients at least)"),
+                        ));
+                    }
+                    o.max_bytes = Some(b);
+                }
                 "degree_weights" => o.degree_weights = get(n, &v)?,
                 "perceptual" => o.perceptual = get(n, &v)?,
                 "cap_rounds" => {
@@ -228,6 +241,12 @@ impl BrdfOptions {
                 "render_check" => o.render_check = get(n, &v)?,
                 _ => return Err(bad(n, format!("unknown (options: {OPTION_NAMES})"))),
             }
+        }
+        if o.max_bytes.is_some() && o.target_de.is_none() {
+            return Err(bad(
+                "max_bytes",
+                "bounds the fit of target_de: give target_de as well",
+            ));
         }
         if o.target_de.is_some() && (o.perceptual || o.spread) {
             return Err(bad(

@@ -117,6 +117,8 @@ def test_channels_fitted_apart_join_into_the_same_fit(military_green, fitted):
         (dict(resolution=(1, 2)), "resolution"),
         (dict(colour="cmyk"), "colour"),
         (dict(target_de=-1.0), "target_de"),
+        (dict(target_de=1.0, max_bytes=4), "max_bytes"),
+        (dict(max_bytes=1024), "max_bytes"),
         (dict(perceptual=True, cap_rounds=17), "cap_rounds"),
         (dict(format="obj"), "format"),
     ],

@@ -310,6 +310,10 @@ pub enum MaterialDescription {
         /// `dims` is then 3).
         #[serde(default, skip_serializing_if = "Option::is_none")]
         target_de: Option<f64>,
+        /// With `target_de`: the most bytes (f32) the fit may have; fits
+        /// over it are tried, never kept. Default: no limit.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        max_bytes: Option<usize>,
         /// An elevation cut in degrees, in (0, 90]: only directions within
         /// it are fitted, and directions beyond it are evaluated at the
         /// cut. Default: 70 for fits at `rel_tol`; a `target_de` fit covers

@@ -36,8 +36,8 @@ pub use cut::{
 };
 pub use split::{colour_split, ColourSplit};
 pub use target::{
-    fit_to_target, on_target_grid, GridFloor, TargetAttempt, TargetReduction, TargetReport,
-    TARGET_GRID_3D, TARGET_SLICE,
+    fit_to_target, on_target_grid, GridFloor, TargetAttempt, TargetBudget, TargetReduction,
+    TargetReport, TARGET_GRID_3D, TARGET_SLICE,
 };
 
 /// The two validation scenes.

@@ -5,33 +5,21 @@ use ratfit_tests::data_dir;
 use render_cpu::{prepare, render, RenderOptions, SceneDescription};
 use std::path::Path;
 
-#[test]
-fn a_target_de_scene_renders_a_glossy_rgl_file() {
-    let Some(data) = data_dir() else {
-        eprintln!("SKIPPED a_target_de_scene_renders_a_glossy_rgl_file: no data directory (set RATFIT_DATA)");
-        return;
-    };
-    let path = data.join("rgl/vch_golden_yellow_rgb.bsdf");
+/// A sphere of material `fit` under one directional light, `size` pixels
+/// square, with the `[materials.*]` tables of `materials`.
+fn sphere_scene(size: usize, materials: &str) -> SceneDescription {
     let text = format!(
         r#"
         [camera]
         from = [0.0, 0.0, 4.0]
         to = [0.0, 0.0, 0.0]
         fov_deg = 32.0
-        width = 32
-        height = 32
+        width = {size}
+        height = {size}
         [integrator]
         kind = "direct"
         spp = 1
-        [materials.table]
-        kind = "measured"
-        format = "rgl"
-        path = "{}"
-        [materials.fit]
-        kind = "fitted"
-        source = "table"
-        max_coeffs = 40
-        target_de = 4.0
+        {materials}
         [[objects]]
         shape = "sphere"
         center = [0.0, 0.0, 0.0]
@@ -41,10 +29,36 @@ fn a_target_de_scene_renders_a_glossy_rgl_file() {
         kind = "directional"
         direction = [0.5, 0.6, 0.8]
         irradiance = [5.0, 5.0, 5.0]
-        "#,
-        path.display()
+        "#
     );
-    let scene = SceneDescription::parse(&text, "target").unwrap();
+    SceneDescription::parse(&text, "target").unwrap()
+}
+
+#[test]
+fn a_target_de_scene_renders_a_glossy_rgl_file() {
+    let Some(data) = data_dir() else {
+        eprintln!("SKIPPED a_target_de_scene_renders_a_glossy_rgl_file: no data directory (set RATFIT_DATA)");
+        return;
+    };
+    let path = data.join("rgl/vch_golden_yellow_rgb.bsdf");
+    let scene = sphere_scene(
+        32,
+        &format!(
+            r#"
+        [materials.table]
+        kind = "measured"
+        format = "rgl"
+        path = "{}"
+        [materials.fit]
+        kind = "fitted"
+        source = "table"
+        max_coeffs = 40
+        target_de = 4.0
+        max_bytes = 1024
+        "#,
+            path.display()
+        ),
+    );
     let options = RenderOptions {
         no_cache: true,
         ..Default::default()
@@ -57,6 +71,7 @@ fn a_target_de_scene_renders_a_glossy_rgl_file() {
         .find(|d| d.contains("target CIEDE2000"))
         .expect("the log states the target and what was reached");
     eprintln!("{line}");
+    assert!(line.contains("of at most 1024"), "{line}");
     let out = render(&scene, &|_, _| {});
     let lit = out.image.pixels.iter().filter(|p| p[1] > 0.0).count();
     assert!(lit > 100, "{lit} lit pixels");
@@ -67,16 +82,49 @@ fn a_target_de_scene_renders_a_glossy_rgl_file() {
         .all(|p| p.iter().all(|v| v.is_finite())));
 }
 
+/// `max_bytes` bounds a `target_de` fit: without one it is refused before
+/// anything is fitted.
+#[test]
+fn a_byte_budget_without_a_target_is_refused() {
+    let scene = sphere_scene(
+        8,
+        r#"
+        [materials.plastic]
+        kind = "blinn-phong"
+        kd = [0.2, 0.3, 0.4]
+        ks = [0.3, 0.3, 0.3]
+        exponent = 20.0
+        [materials.fit]
+        kind = "fitted"
+        source = "plastic"
+        max_bytes = 512
+        "#,
+    );
+    let options = RenderOptions {
+        no_cache: true,
+        ..Default::default()
+    };
+    let Err(err) = prepare(scene, Path::new("."), "budget", &options) else {
+        panic!("max_bytes without target_de is refused");
+    };
+    let text = err.to_string();
+    assert!(
+        text.contains("max_bytes") && text.contains("target_de") && text.contains("fit"),
+        "{text}"
+    );
+}
+
 /// The report of a target fit of a glossy Blinn-Phong material on a
-/// `bins` 3-D grid within `max_coeffs` coefficients per function,
-/// validated on tiny renders.
-fn glossy_target_report(
+/// `bins` 3-D grid within `max_coeffs` coefficients per function and
+/// `max_bytes`, validated on tiny renders.
+fn glossy_target_fit(
     target: f64,
     bins: [usize; 3],
     max_coeffs: usize,
-) -> render_cpu::fidelity::TargetReport {
+    max_bytes: Option<usize>,
+) -> Result<render_cpu::fidelity::TargetReport, render_cpu::RenderError> {
     use brdf::{BlinnPhong, BrdfFitSettings, PerceptualBounds, Reduction, ReductionKind};
-    use render_cpu::fidelity::{fit_to_target, TargetReduction, ValidationSettings};
+    use render_cpu::fidelity::{fit_to_target, TargetBudget, TargetReduction, ValidationSettings};
     use std::sync::Arc;
     let glossy: Arc<dyn brdf::Brdf> = Arc::new(BlinnPhong {
         kd: [0.2, 0.3, 0.1],
@@ -109,10 +157,21 @@ fn glossy_target_report(
         &settings,
         TargetReduction::Fixed,
         validation,
-        60.0,
+        TargetBudget::seconds(60.0).with_bytes(max_bytes),
     )
-    .unwrap()
-    .1
+    .map(|(fitted, report)| {
+        assert_eq!(fitted.byte_size_f32(), report.bytes);
+        report
+    })
+}
+
+/// [`glossy_target_fit`] without a byte budget.
+fn glossy_target_report(
+    target: f64,
+    bins: [usize; 3],
+    max_coeffs: usize,
+) -> render_cpu::fidelity::TargetReport {
+    glossy_target_fit(target, bins, max_coeffs, None).unwrap()
 }
 
 /// A target below what the 3-D grid keeps is reported as such: the report
@@ -163,4 +222,37 @@ fn target_fits_widen_by_sqrt_2_at_most_twice() {
             .any(|w| (w / std::f64::consts::SQRT_2 - 1.0).abs() < 1e-9),
         "no fit landed at x1.41: {widened:?}"
     );
+}
+
+/// A byte budget is never passed: fits over it are listed as such and not
+/// returned, and a tolerance whose fit passes it is followed by looser ones
+/// (tighter ones would only grow); a budget nothing fits in is an error
+/// that names it.
+#[test]
+fn a_target_fit_stays_within_its_byte_budget() {
+    // A target every evaluation reaches: the loosest tolerance, no shell.
+    let free = glossy_target_report(1e3, [6, 6, 4], 30);
+    assert!(free.reached && free.max_bytes.is_none() && free.shell_bytes.is_none());
+    assert!((free.rel_tol - 0.16).abs() < 1e-12, "{free}");
+    let budget = free.bytes - 4;
+    let bounded = glossy_target_fit(1e3, [6, 6, 4], 30, Some(budget)).unwrap();
+    assert_eq!(bounded.max_bytes, Some(budget));
+    assert!(bounded.bytes <= budget, "{bounded}");
+    for a in &bounded.tried {
+        let over = a.result.is_some_and(|(bytes, _)| bytes > budget);
+        assert_eq!(a.over_budget, over, "{bounded}");
+    }
+    assert!(bounded.tried[0].over_budget, "{bounded}");
+    assert!(
+        bounded.tried.iter().all(|a| a.rel_tol >= 0.16),
+        "a fit over the budget is followed by looser tolerances only: {bounded}"
+    );
+    assert!(bounded.rel_tol > 0.16, "{bounded}");
+    let text = bounded.to_string();
+    assert!(text.contains(&format!("of at most {budget}")), "{text}");
+    assert!(text.contains("(over the byte budget)"), "{text}");
+    let err = glossy_target_fit(1e-3, [6, 6, 4], 30, Some(8)).unwrap_err();
+    assert!(err.to_string().contains("within 8 bytes"), "{err}");
+    let err = glossy_target_fit(1e-3, [6, 6, 4], 30, Some(4)).unwrap_err();
+    assert!(err.to_string().contains("max_bytes"), "{err}");
 }

@@ -25,7 +25,7 @@ mod outputs;
 mod reps;
 
 use outputs::{check, write_images, write_outputs};
-use reps::{rational_reps, Plan};
+use reps::{rational_reps, Plan, TargetPlan};
 
 /// Options of `ratfit bench fidelity`.
 #[derive(Args)]
@@ -78,6 +78,17 @@ pub struct FidelityArgs {
     /// the cut instead of its loosely bounded grazing cells.
     #[arg(long, value_delimiter = ',')]
     post_cuts: Vec<f64>,
+    /// Also measure the fit `ratfit fit FILE --target-de D --max-bytes B`
+    /// returns (chosen on its own validation renders, 96 x 96 with 256 sky
+    /// samples, then measured here like every representation).
+    #[arg(long, value_parser = crate::args::positive)]
+    target_de: Option<f64>,
+    /// The byte budget of the `--target-de` fit.
+    #[arg(long, default_value_t = 1024, value_parser = crate::args::max_bytes)]
+    max_bytes: usize,
+    /// Seconds the `--target-de` fit may spend on fits and renders.
+    #[arg(long, default_value_t = 120.0, value_parser = crate::args::positive)]
+    time_budget: f64,
     /// Largest coefficient budget per channel.
     #[arg(long, default_value_t = 120)]
     max_coeffs: usize,
@@ -162,6 +173,7 @@ fn load(path: &Path) -> Result<Arc<dyn Brdf>> {
 struct Judge<'a> {
     material: &'a str,
     table: &'a dyn Brdf,
+    shared: &'a Arc<dyn Brdf>,
     validator: &'a Validator,
     plan: &'a Plan,
 }
@@ -276,6 +288,7 @@ pub fn run(args: FidelityArgs) -> Result<()> {
         let judge = Judge {
             material: &material,
             table: table.as_ref(),
+            shared: &table,
             validator: &validator,
             plan: &plan,
         };
@@ -292,7 +305,12 @@ pub fn run(args: FidelityArgs) -> Result<()> {
         rows.extend(material_rows);
         write_outputs(&args, &rows, &noise, start.elapsed().as_secs_f64())?;
     }
-    let problems = check(&args.out, &rows, &noise);
+    let problems = check(
+        &args.out,
+        &rows,
+        &noise,
+        args.target_de.map(|_| args.max_bytes),
+    );
     if !problems.is_empty() {
         for p in &problems {
             eprintln!("check: {p}");
@@ -365,6 +383,11 @@ fn settings_and_plan(args: &FidelityArgs) -> (ValidationSettings, Plan) {
         } else {
             HemisphereSettings::default()
         },
+        target: args.target_de.map(|de| TargetPlan {
+            de,
+            max_bytes: Some(args.max_bytes),
+            seconds: args.time_budget,
+        }),
     };
     (settings, plan)
 }
@@ -452,13 +475,20 @@ fn measure_with_shells(
 /// Every representation of one material, measured.
 fn measure_material(judge: &Judge) -> Result<Vec<Row>> {
     let mut material_rows = Vec::new();
-    for (name, result, fit_s) in rational_reps(judge.table, judge.plan) {
-        match result {
+    for attempt in rational_reps(judge.shared, judge.plan) {
+        let (name, fit_s) = (attempt.name, attempt.fit_s);
+        match attempt.result {
             Ok((fitted, note)) => {
                 let bytes = fitted.byte_size_f32();
                 let note = with_unclamped_peak(note, judge, &fitted);
-                let post_cut = post_cut_variants(&fitted, &judge.plan.post_cuts);
-                let own_cut = (fitted.reduction.max_elevation_deg < 90.0).then(|| fitted.clone());
+                let (post_cut, own_cut) = if attempt.variants {
+                    (
+                        post_cut_variants(&fitted, &judge.plan.post_cuts),
+                        (fitted.reduction.max_elevation_deg < 90.0).then(|| fitted.clone()),
+                    )
+                } else {
+                    (Vec::new(), None)
+                };
                 let candidate: Arc<dyn Brdf> = Arc::new(FitInDomain::new(fitted));
                 let row = measure(
                     judge,

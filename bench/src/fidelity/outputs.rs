@@ -197,6 +197,7 @@ fn summary(args: &FidelityArgs, rows: &[Row], noise: &[(String, Vec<f64>)], wall
     for (m, n) in noise {
         let _ = writeln!(md, "| {m} | {:.3} / {:.3} |", n[0], n[1]);
     }
+    best_within_budget(&mut md, rows, noise);
     let _ = writeln!(
         md,
         "\n| material | representation | bytes | fit s | dE lights (p99) | dE sky (p99) | rel 0-70 med / p90 | rel 70-80 med | rel 80-90 med | rel <80 med | peak x | note |\n|---|---|---|---|---|---|---|---|---|---|---|---|"
@@ -226,8 +227,65 @@ fn summary(args: &FidelityArgs, rows: &[Row], noise: &[(String, Vec<f64>)], wall
     md
 }
 
-/// Checks a finished run: every file present, every figure finite.
-pub(super) fn check(out: &Path, rows: &[Row], noise: &[(String, Vec<f64>)]) -> Vec<String> {
+/// The bytes of the fidelity target (an RGB material).
+const BUDGET_BYTES: usize = 1024;
+
+/// The render target: mean CIEDE2000 on both scenes.
+const TARGET_DE: f64 = 1.0;
+
+/// The row of `material` with the lowest worse-scene mean CIEDE2000 within
+/// `bytes` (the fewer bytes between equal errors).
+fn best_within<'a>(rows: &'a [Row], material: &str, bytes: usize) -> Option<&'a Row> {
+    rows.iter()
+        .filter(|r| r.material == material && r.bytes <= bytes)
+        .min_by(|a, b| {
+            a.render
+                .worst_mean()
+                .total_cmp(&b.render.worst_mean())
+                .then(a.bytes.cmp(&b.bytes))
+        })
+}
+
+/// The headline: each material's best representation within
+/// [`BUDGET_BYTES`] and how far its worse scene is from [`TARGET_DE`].
+fn best_within_budget(md: &mut String, rows: &[Row], noise: &[(String, Vec<f64>)]) {
+    let _ = writeln!(
+        md,
+        "\nBest within {BUDGET_BYTES} bytes (the lowest worse-scene mean CIEDE2000; target {TARGET_DE} on both scenes):\n\n\
+         | material | representation | bytes | lights / sky | worse scene | rel <80 med | peak x |\n|---|---|---|---|---|---|---|"
+    );
+    for (m, _) in noise {
+        let Some(r) = best_within(rows, m, BUDGET_BYTES) else {
+            let _ = writeln!(md, "| {m} | none within {BUDGET_BYTES} B | | | | | |");
+            continue;
+        };
+        let worst = r.render.worst_mean();
+        let verdict = if worst <= TARGET_DE {
+            "met".to_string()
+        } else {
+            format!("{:.1}x the target", worst / TARGET_DE)
+        };
+        let _ = writeln!(
+            md,
+            "| {m} | {} | {} | {:.3} / {:.3} | {worst:.3} ({verdict}) | {:.3} | {:.2} |",
+            r.representation,
+            r.bytes,
+            r.render.scenes[0].mean_de,
+            r.render.scenes[1].mean_de,
+            r.hemisphere.median_below_80,
+            r.hemisphere.peak_ratio
+        );
+    }
+}
+
+/// Checks a finished run: every file present, every figure finite, and,
+/// with `target_bytes`, a target fit within it for every material.
+pub(super) fn check(
+    out: &Path,
+    rows: &[Row],
+    noise: &[(String, Vec<f64>)],
+    target_bytes: Option<usize>,
+) -> Vec<String> {
     let mut problems = Vec::new();
     for f in [
         "results.csv",
@@ -238,6 +296,12 @@ pub(super) fn check(out: &Path, rows: &[Row], noise: &[(String, Vec<f64>)]) -> V
         if !out.join(f).is_file() {
             problems.push(format!("{f} is missing"));
         }
+    }
+    let headline = format!("Best within {BUDGET_BYTES} bytes");
+    match std::fs::read_to_string(out.join("summary.md")) {
+        Ok(md) if md.contains(&headline) => {}
+        Ok(_) => problems.push(format!("summary.md lacks the table \"{headline}\"")),
+        Err(_) => {} // reported above as missing
     }
     // Read back with the writer's own schema: a row with a missing, extra
     // or unparsable field is an error.
@@ -297,6 +361,19 @@ pub(super) fn check(out: &Path, rows: &[Row], noise: &[(String, Vec<f64>)]) -> V
                     )),
                     None => problems.push(format!("{m}: {name} was not measured")),
                 }
+            }
+        }
+        if let Some(max) = target_bytes {
+            match reps
+                .iter()
+                .find(|r| r.representation.starts_with("rational target"))
+            {
+                Some(r) if r.bytes <= max => {}
+                Some(r) => problems.push(format!(
+                    "{m}: the target fit has {} bytes, over its budget of {max}",
+                    r.bytes
+                )),
+                None => problems.push(format!("{m}: the target fit was not measured")),
             }
         }
         for scene in ValidationScene::ALL {

@@ -1,12 +1,24 @@
 //! The rational representations `bench fidelity` fits: the plain 2-D
-//! slice, the 2-D perceptual fit and the 3-D perceptual fits by colour
-//! mode, lobe and tolerance.
+//! slice, the 2-D perceptual fit, the 3-D perceptual fits by colour
+//! mode, lobe and tolerance, and the fit `ratfit fit --target-de` returns.
 
 use super::LobeChoice;
 use anyhow::Result;
 use brdf::fidelity::HemisphereSettings;
 use brdf::{Brdf, ColourMode};
+use std::sync::Arc;
 use std::time::Instant;
+
+/// The fit of `ratfit fit --target-de D --max-bytes B` as a representation.
+#[derive(Clone, Copy)]
+pub(super) struct TargetPlan {
+    /// Mean CIEDE2000 asked for on the target's own validation renders.
+    pub(super) de: f64,
+    /// Byte budget of the fit returned.
+    pub(super) max_bytes: Option<usize>,
+    /// Seconds of fits and renders (`--time-budget`).
+    pub(super) seconds: f64,
+}
 
 /// Settings of the representations measured.
 pub(super) struct Plan {
@@ -19,22 +31,53 @@ pub(super) struct Plan {
     pub(super) post_cuts: Vec<f64>,
     pub(super) max_coeffs: usize,
     pub(super) hemisphere: HemisphereSettings,
+    pub(super) target: Option<TargetPlan>,
 }
 
 /// A representation's name, its fit and description (or why it failed),
 /// and the fit time.
-pub(super) type Attempt = (String, Result<(brdf::FittedBrdf, String)>, f64);
+pub(super) struct Attempt {
+    pub(super) name: String,
+    pub(super) result: Result<(brdf::FittedBrdf, String)>,
+    pub(super) fit_s: f64,
+    /// Whether the benchmark also measures it evaluated within cuts and
+    /// with shell factors (not for a fit whose evaluation is chosen already).
+    pub(super) variants: bool,
+}
 
-pub(super) fn rational_reps(table: &dyn Brdf, plan: &Plan) -> Vec<Attempt> {
+impl Attempt {
+    fn timed(name: String, start: Instant, result: Result<(brdf::FittedBrdf, String)>) -> Self {
+        Attempt {
+            name,
+            result,
+            fit_s: start.elapsed().as_secs_f64(),
+            variants: true,
+        }
+    }
+}
+
+pub(super) fn rational_reps(table: &Arc<dyn Brdf>, plan: &Plan) -> Vec<Attempt> {
     let mut out = Vec::new();
+    if let Some(target) = plan.target {
+        let start = Instant::now();
+        let r = fit_target(table, target, plan.max_coeffs);
+        let within = target
+            .max_bytes
+            .map_or(String::new(), |b| format!(" within {b} B"));
+        out.push(Attempt {
+            variants: false,
+            ..Attempt::timed(
+                format!("rational target dE {}{within}", target.de),
+                start,
+                r,
+            )
+        });
+    }
+    let table = table.as_ref();
     // Today's former default for scenes: the 2-D slice at 20% inside the cuts.
     let start = Instant::now();
     let r = rational_mode::fit_plain_2d(table, 0.2, plan.max_coeffs);
-    out.push((
-        "rational 2-D 20%".to_string(),
-        r,
-        start.elapsed().as_secs_f64(),
-    ));
+    out.push(Attempt::timed("rational 2-D 20%".to_string(), start, r));
     if plan.perceptual_2d {
         let start = Instant::now();
         let t = plan.tols.iter().copied().fold(0.0, f64::max).min(0.08);
@@ -45,10 +88,10 @@ pub(super) fn rational_reps(table: &dyn Brdf, plan: &Plan) -> Vec<Attempt> {
         };
         let r =
             rational_mode::fit_perceptual(table, grid, t, plan.max_coeffs, ColourMode::Rgb, None);
-        out.push((
+        out.push(Attempt::timed(
             format!("rational 2-D perceptual {}%", t * 100.0),
+            start,
             r,
-            start.elapsed().as_secs_f64(),
         ));
     }
     // The lobe is fitted once; its time counts in every fit that uses it.
@@ -73,15 +116,78 @@ pub(super) fn rational_reps(table: &dyn Brdf, plan: &Plan) -> Vec<Attempt> {
                 let what = mode.to_string();
                 let lobe_name = if with.is_some() { " x GGX lobe" } else { "" };
                 let cut = plan.cut_3d.map_or(String::new(), |c| format!(" cut {c}"));
-                out.push((
+                let mut attempt = Attempt::timed(
                     format!("rational 3-D {what}{lobe_name} {}%{cut}", t * 100.0),
+                    start,
                     r,
-                    start.elapsed().as_secs_f64() + lobe_s,
-                ));
+                );
+                attempt.fit_s += lobe_s;
+                out.push(attempt);
             }
         }
     }
     out
+}
+
+/// The fit `ratfit fit FILE --target-de D [--max-bytes B]` returns (its
+/// settings: luminance-chroma, perceptual intervals over the whole
+/// hemisphere, the slice first and then the 16^3 grid, chosen on the
+/// default validation renders, 96 x 96 with 256 sky samples), described by
+/// its report.
+fn fit_target(
+    table: &Arc<dyn Brdf>,
+    target: TargetPlan,
+    max_coeffs: usize,
+) -> Result<(brdf::FittedBrdf, String)> {
+    use render_cpu::fidelity::{
+        fit_to_target, on_target_grid, TargetBudget, TargetReduction, ValidationSettings,
+    };
+    let reduction = on_target_grid(
+        brdf::Reduction::default()
+            .with_kind(brdf::ReductionKind::Full3d)
+            .whole_hemisphere(),
+    );
+    let engine = rational_core::FitSettings::default()
+        .with_coeff_range(2, max_coeffs)?
+        .with_search(rational_core::Search::Staircase);
+    let settings = brdf::BrdfFitSettings::default()
+        .with_reduction(reduction)
+        .with_baselines(false)
+        .with_colour_mode(ColourMode::LuminanceChroma)
+        .with_design(brdf::PerceptualBounds::default())
+        .with_fit_settings(engine);
+    let budget = TargetBudget::seconds(target.seconds).with_bytes(target.max_bytes);
+    let (fitted, report) = fit_to_target(
+        table.clone(),
+        target.de,
+        &settings,
+        TargetReduction::Auto,
+        ValidationSettings::default(),
+        budget,
+    )?;
+    let widened = report.widened;
+    let note = format!(
+        "{}-D +-{}%{}{}{}; {} on its own validation renders ({:.3}); {} fits tried",
+        report.dims,
+        brdf::scale_text(report.rel_tol * 100.0),
+        if widened > 1.0 {
+            format!(" widened x{}", brdf::scale_text(widened))
+        } else {
+            String::new()
+        },
+        match (report.fitted_within, report.evaluation_cut) {
+            (Some(c), _) => format!(", fitted within {c}"),
+            (None, Some(c)) => format!(", evaluated within {c}"),
+            (None, None) => String::new(),
+        },
+        report
+            .shell_bytes
+            .map_or(String::new(), |b| format!(" + shell {b} B")),
+        if report.reached { "reached" } else { "missed" },
+        report.scenes.iter().map(|s| s.mean_de).fold(0.0, f64::max),
+        report.tried.len()
+    );
+    Ok((fitted, note))
 }
 
 /// The rational modes the benchmark fits, by name.

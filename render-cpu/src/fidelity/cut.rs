@@ -84,17 +84,25 @@ impl CutChoice {
     }
 }
 
-/// The index of the evaluation to keep among `tried`: with a target, the
-/// fewest bytes among those whose worse scene reaches it (the lower error
-/// between equal sizes); without one, or when none reaches it, the lowest
-/// error (the fewer bytes between equal errors).
-fn preferred(tried: &[CutTried], target_de: Option<f64>) -> usize {
+/// The index of the evaluation to keep among `tried`, among those within
+/// `max_bytes` when any is (the first, the fit as given, is the smallest):
+/// with a target, the fewest bytes among those whose worse scene reaches it
+/// (the lower error between equal sizes); without one, or when none reaches
+/// it, the lowest error (the fewer bytes between equal errors).
+fn preferred(tried: &[CutTried], target_de: Option<f64>, max_bytes: Option<usize>) -> usize {
     let by_error = |a: &CutTried, b: &CutTried| {
         a.worst_mean_de
             .total_cmp(&b.worst_mean_de)
             .then(a.bytes.cmp(&b.bytes))
     };
-    let indexed = || tried.iter().enumerate();
+    let within = |t: &CutTried| max_bytes.is_none_or(|m| t.bytes <= m);
+    let any_within = tried.iter().any(within);
+    let indexed = || {
+        tried
+            .iter()
+            .enumerate()
+            .filter(move |(_, t)| !any_within || within(t))
+    };
     indexed()
         .filter(|(_, t)| target_de.is_some_and(|d| t.worst_mean_de <= d))
         .min_by(|(_, a), (_, b)| a.bytes.cmp(&b.bytes).then(by_error(a, b)))
@@ -108,7 +116,9 @@ fn preferred(tried: &[CutTried], target_de: Option<f64>) -> usize {
 /// ([`brdf::ShellFactor`], at each of [`SHELL_BIN_CHOICES`]), measured on
 /// the validation renders. The evaluation kept has the lowest worse-scene
 /// mean CIEDE2000 or, given `target_de`, the fewest bytes among those that
-/// reach it (the smallest representation is what a target asks for). The
+/// reach it (the smallest representation is what a target asks for); given
+/// `max_bytes`, only evaluations within it are kept (a shell factor that
+/// would pass it is not), unless the fit alone passes it. The
 /// functions are not fitted again: directions beyond the cut are moved onto
 /// it ([`brdf::clamp_elevation`]), so grazing views show the fit's value at
 /// the cut instead of its loosely bounded grazing cells (a silhouette under
@@ -127,6 +137,7 @@ pub fn choose_evaluation_cut(
     fitted: FittedBrdf,
     errors: RenderErrors,
     target_de: Option<f64>,
+    max_bytes: Option<usize>,
 ) -> Result<CutChoice, RenderError> {
     let mut tried = vec![CutTried {
         cut: None,
@@ -177,7 +188,7 @@ pub fn choose_evaluation_cut(
             measured.push((variant, errors));
         }
     }
-    let k = preferred(&tried, target_de);
+    let k = preferred(&tried, target_de, max_bytes);
     let (fitted, errors) = measured.swap_remove(k);
     Ok(CutChoice {
         fitted,
@@ -200,7 +211,7 @@ pub fn render_check_choosing_cut(
 ) -> Result<CutChoice, RenderError> {
     let validator = Validator::new(table.clone(), RENDER_CHECK)?;
     let errors = validator.measure(Arc::new(crate::FitInDomain::new(fitted.clone())))?;
-    let mut choice = choose_evaluation_cut(&validator, table.as_ref(), fitted, errors, None)?;
+    let mut choice = choose_evaluation_cut(&validator, table.as_ref(), fitted, errors, None, None)?;
     choice.errors.images.clear();
     let chosen: Arc<dyn Brdf> = Arc::new(crate::FitInDomain::new(choice.fitted.clone()));
     choice.errors.colour_split = Some(super::colour_split(&validator, table, chosen)?);
@@ -241,9 +252,15 @@ mod tests {
             .measure(Arc::new(crate::FitInDomain::new(fitted.clone())))
             .unwrap();
         let whole = errors.worst_mean();
-        let choice =
-            choose_evaluation_cut(&validator, &glossy, fitted.clone(), errors.clone(), None)
-                .unwrap();
+        let choice = choose_evaluation_cut(
+            &validator,
+            &glossy,
+            fitted.clone(),
+            errors.clone(),
+            None,
+            None,
+        )
+        .unwrap();
         // None and every cut measured, without and with each shell factor;
         // the chosen one has the lowest error.
         let shells = SHELL_BIN_CHOICES.len();
@@ -275,6 +292,7 @@ mod tests {
             fitted.clone(),
             errors.clone(),
             Some(1e9),
+            None,
         )
         .unwrap();
         assert_eq!(
@@ -284,9 +302,35 @@ mod tests {
             reached.describe()
         );
         assert!(!reached.shell);
-        let missed =
-            choose_evaluation_cut(&validator, &glossy, fitted.clone(), errors, Some(1e-9)).unwrap();
+        let missed = choose_evaluation_cut(
+            &validator,
+            &glossy,
+            fitted.clone(),
+            errors.clone(),
+            Some(1e-9),
+            None,
+        )
+        .unwrap();
         assert!((missed.errors.worst_mean() - lowest).abs() < 1e-12);
+        // A byte budget no shell factor fits in keeps the fit without one.
+        let budget = fitted.byte_size_f32();
+        let small = choose_evaluation_cut(
+            &validator,
+            &glossy,
+            fitted.clone(),
+            errors.clone(),
+            None,
+            Some(budget),
+        )
+        .unwrap();
+        assert!(!small.shell && small.fitted.byte_size_f32() == budget);
+        let plain_lowest = choice
+            .tried
+            .iter()
+            .filter(|t| !t.shell)
+            .map(|t| t.worst_mean_de)
+            .fold(f64::INFINITY, f64::min);
+        assert!((small.errors.worst_mean() - plain_lowest).abs() < 1e-12);
         // A fit that already has a cut keeps it, with or without the shell.
         let mut within = fitted;
         within.reduction = within.reduction.with_max_elevation(75.0);
@@ -294,7 +338,7 @@ mod tests {
             .measure(Arc::new(crate::FitInDomain::new(within.clone())))
             .unwrap();
         let kept =
-            choose_evaluation_cut(&validator, &glossy, within.clone(), errors, None).unwrap();
+            choose_evaluation_cut(&validator, &glossy, within.clone(), errors, None, None).unwrap();
         assert_eq!(kept.tried.len(), 1 + shells);
         for t in &kept.tried[1..] {
             assert_eq!((t.cut, t.shell), (Some(75.0), true));
@@ -318,7 +362,7 @@ mod tests {
         let errors = validator
             .measure(Arc::new(crate::FitInDomain::new(shelled.clone())))
             .unwrap();
-        let kept = choose_evaluation_cut(&validator, &glossy, shelled, errors, None).unwrap();
+        let kept = choose_evaluation_cut(&validator, &glossy, shelled, errors, None, None).unwrap();
         assert_eq!((kept.cut, kept.shell, kept.tried.len()), (None, true, 1));
         assert!(kept
             .describe()
@@ -344,13 +388,21 @@ mod tests {
             tried(0.95, 1088),
         ];
         // Without a target, or one none reaches: the lowest error.
-        assert_eq!(preferred(&list, None), 3);
-        assert_eq!(preferred(&list, Some(0.5)), 3);
+        assert_eq!(preferred(&list, None, None), 3);
+        assert_eq!(preferred(&list, Some(0.5), None), 3);
         // The smallest that reaches it; the lower error between equal sizes.
-        assert_eq!(preferred(&list, Some(1.0)), 2);
-        assert_eq!(preferred(&list, Some(1.2)), 2);
-        assert_eq!(preferred(&list, Some(1.5)), 0);
+        assert_eq!(preferred(&list, Some(1.0), None), 2);
+        assert_eq!(preferred(&list, Some(1.2), None), 2);
+        assert_eq!(preferred(&list, Some(1.5), None), 0);
         // Equal errors: the fewer bytes.
-        assert_eq!(preferred(&[tried(1.0, 1088), tried(1.0, 1024)], None), 1);
+        assert_eq!(
+            preferred(&[tried(1.0, 1088), tried(1.0, 1024)], None, None),
+            1
+        );
+        // A byte budget leaves out what passes it, unless everything does.
+        assert_eq!(preferred(&list, None, Some(1024)), 2);
+        assert_eq!(preferred(&list, Some(0.5), Some(1000)), 0);
+        assert_eq!(preferred(&list, Some(1.0), Some(1000)), 0);
+        assert_eq!(preferred(&list, None, Some(900)), 3);
     }
 }

@@ -39,6 +39,42 @@ pub struct TargetAttempt {
     pub cut: Option<f64>,
     /// Whether a shell factor beyond that cut was chosen with it.
     pub shell: bool,
+    /// Whether its bytes pass the byte budget ([`TargetBudget::bytes`]), so
+    /// that it could not be returned.
+    pub over_budget: bool,
+    /// The elevation cut (degrees) the functions were fitted within;
+    /// `None`: the whole hemisphere.
+    pub fitted_within: Option<f64>,
+}
+
+/// What [`fit_to_target`] may spend.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct TargetBudget {
+    /// Seconds of fits and renders, checked between fits (the last fit
+    /// may run past it).
+    pub seconds: f64,
+    /// Bytes (f32) of the fit returned, its shell factor included; `None`:
+    /// no limit. Fits that pass it are tried and reported, never returned.
+    pub bytes: Option<usize>,
+}
+
+impl TargetBudget {
+    /// `seconds` and no byte limit.
+    pub fn seconds(seconds: f64) -> Self {
+        TargetBudget {
+            seconds,
+            bytes: None,
+        }
+    }
+
+    /// `self` with a byte limit.
+    pub fn with_bytes(self, bytes: Option<usize>) -> Self {
+        TargetBudget { bytes, ..self }
+    }
+
+    fn passed_by(&self, bytes: usize) -> bool {
+        self.bytes.is_some_and(|m| bytes > m)
+    }
 }
 
 /// The table averaged over the cells of the grid a 3-D fit samples
@@ -67,11 +103,19 @@ pub struct TargetReport {
     pub why: String,
     /// The perceptual half-width of the chosen fit.
     pub rel_tol: f64,
+    /// The largest factor a channel's intervals were widened by in the
+    /// chosen fit (1: none).
+    pub widened: f64,
     /// Bytes of the chosen fit (f32).
     pub bytes: usize,
+    /// The byte budget the fit was chosen within; `None`: none.
+    pub max_bytes: Option<usize>,
     /// The evaluation cut chosen by the validation renders for a fit over
     /// the whole hemisphere (degrees; `None`: none).
     pub evaluation_cut: Option<f64>,
+    /// The elevation cut (degrees) the chosen fit's functions were fitted
+    /// within; `None`: the whole hemisphere.
+    pub fitted_within: Option<f64>,
     /// Bytes of the shell factor beyond that cut ([`brdf::ShellFactor`]),
     /// included in `bytes`, when the renders chose one.
     pub shell_bytes: Option<usize>,
@@ -96,7 +140,7 @@ impl std::fmt::Display for TargetReport {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         writeln!(
             f,
-            "target mean CIEDE2000 <= {}: {} with a {}-D fit, perceptual intervals of +-{}% ({} bytes)",
+            "target mean CIEDE2000 <= {}: {} with a {}-D fit, perceptual intervals of +-{}% ({} bytes{})",
             self.target_de,
             if self.reached {
                 "reached"
@@ -104,11 +148,18 @@ impl std::fmt::Display for TargetReport {
                 "NOT reached; the closest fit within the budget"
             },
             self.dims,
-            self.rel_tol * 100.0,
-            self.bytes
+            brdf::scale_text(self.rel_tol * 100.0),
+            self.bytes,
+            self.max_bytes
+                .map_or(String::new(), |m| format!(" of at most {m}"))
         )?;
         writeln!(f, "  {}", self.why)?;
-        if let Some(c) = self.evaluation_cut {
+        if let Some(c) = self.fitted_within {
+            writeln!(
+                f,
+                "  fitted within {c} degrees of the normal (no coefficients spent beyond; directions beyond are evaluated at the cut)"
+            )?;
+        } else if let Some(c) = self.evaluation_cut {
             writeln!(
                 f,
                 "  evaluated within {c} degrees of the normal (directions beyond moved onto the cut; chosen by the validation renders)"
@@ -150,13 +201,20 @@ impl std::fmt::Display for TargetReport {
             match a.result {
                 Some((bytes, worst)) => writeln!(
                     f,
-                    "  tried {}-D +-{}%{}: {bytes} bytes, worse mean CIEDE2000 {worst:.3}{}",
+                    "  tried {}-D{} +-{}%{}: {bytes} bytes{}, worse mean CIEDE2000 {worst:.3}{}",
                     a.dims,
-                    a.rel_tol * 100.0,
+                    a.fitted_within
+                        .map_or(String::new(), |c| format!(" within {c} degrees")),
+                    brdf::scale_text(a.rel_tol * 100.0),
                     if a.widened > 1.0 {
                         format!(" (widened x{})", brdf::scale_text(a.widened))
                     } else {
                         String::new()
+                    },
+                    if a.over_budget {
+                        " (over the byte budget)"
+                    } else {
+                        ""
                     },
                     a.cut.map_or(String::new(), |c| format!(
                         " evaluated within {c} degrees{}",
@@ -165,9 +223,11 @@ impl std::fmt::Display for TargetReport {
                 )?,
                 None => writeln!(
                     f,
-                    "  tried {}-D +-{}%: no fit within the coefficient budget",
+                    "  tried {}-D{} +-{}%: no fit within the coefficient budget",
                     a.dims,
-                    a.rel_tol * 100.0
+                    a.fitted_within
+                        .map_or(String::new(), |c| format!(" within {c} degrees")),
+                    brdf::scale_text(a.rel_tol * 100.0)
                 )?,
             }
         }
@@ -177,8 +237,7 @@ impl std::fmt::Display for TargetReport {
 
 /// The best fit of one reduction and every attempt.
 struct Search {
-    /// The fit, its errors, its tolerance and the evaluation cut chosen.
-    best: Option<(brdf::FittedBrdf, RenderErrors, f64, Option<f64>)>,
+    best: Best,
     tried: Vec<TargetAttempt>,
 }
 
@@ -186,7 +245,7 @@ impl Search {
     fn worst(&self) -> f64 {
         self.best
             .as_ref()
-            .map_or(f64::INFINITY, |b| b.1.worst_mean())
+            .map_or(f64::INFINITY, |b| b.errors.worst_mean())
     }
 }
 
@@ -220,6 +279,19 @@ const TOLERANCES: [f64; 4] = [0.16, 0.08, 0.04, 0.02];
 /// feasible within the coefficient budget.
 const LOOSER: [f64; 2] = [0.32, 0.64];
 
+/// The loosest tolerance tried when fits pass the byte budget.
+const LOOSEST: f64 = 0.64;
+
+/// Tolerances after `t` tried when its fit passes the byte budget: looser
+/// by sqrt 2 each, up to [`LOOSEST`] (fewer coefficients, and bytes are
+/// what is short).
+fn looser_for_bytes(t: f64) -> Vec<f64> {
+    (1..)
+        .map(|k| t * std::f64::consts::SQRT_2.powi(k))
+        .take_while(|&u| u <= LOOSEST * (1.0 + 1e-9))
+        .collect()
+}
+
 /// Each widening of a target fit's intervals. Each function is fitted on
 /// its own, so only one that misses its tolerance is widened, and it lands
 /// at 1.41 times the tolerance rather than 2.
@@ -229,113 +301,340 @@ const WIDEN_STEP: f64 = std::f64::consts::SQRT_2;
 /// squared).
 const MAX_WIDENINGS: usize = 2;
 
+/// The engine of a target fit: `settings`' with the target's widening,
+/// and no function given more coefficients than the byte budget holds (its
+/// fits stop there and widen instead of searching sizes that could not be
+/// returned).
+fn target_engine(
+    settings: &brdf::BrdfFitSettings,
+    budget: TargetBudget,
+) -> Result<rational_core::FitSettings, RenderError> {
+    let invalid = |e: rational_core::FitError| crate::error::invalid("fit settings", e.to_string());
+    let mut engine = settings
+        .fit_settings()
+        .clone()
+        .with_widening(WIDEN_STEP, MAX_WIDENINGS)
+        .map_err(invalid)?;
+    if let Some(bytes) = budget.bytes {
+        let (lo, hi) = engine.coeff_range();
+        let cap = (bytes / 4).max(lo);
+        if cap < hi {
+            engine = engine.with_coeff_range(lo, cap).map_err(invalid)?;
+        }
+    }
+    Ok(engine)
+}
+
+/// Coefficients per function when a byte budget is split evenly between
+/// the fitted functions (at least the engine's smallest budget).
+fn split_cap(settings: &brdf::BrdfFitSettings, bytes: usize) -> usize {
+    let functions = settings.colour_mode().names().len();
+    let (lo, hi) = settings.fit_settings().coeff_range();
+    (bytes / 4 / functions).clamp(lo, hi.max(lo))
+}
+
+/// The 3-D search of `base` with each function held to an even share of
+/// the byte budget ([`split_cap`]): run when no fit with the whole budget
+/// for each function came within it, so that each function is widened (or
+/// the tolerance loosened) until the three together fit.
+fn split_budget_search(
+    goal: &Goal,
+    base: &brdf::BrdfFitSettings,
+    bytes: usize,
+    deadline_s: f64,
+) -> Result<Search, RenderError> {
+    let (lo, _) = base.fit_settings().coeff_range();
+    let engine = base
+        .fit_settings()
+        .clone()
+        .with_coeff_range(lo, split_cap(base, bytes))
+        .map_err(|e| crate::error::invalid("fit settings", e.to_string()))?;
+    let settings = base.clone().with_fit_settings(engine);
+    search_tolerances(goal, &settings, &TOLERANCES, deadline_s, false)
+}
+
+/// What every fit of one [`fit_to_target`] call is judged against.
+struct Goal<'a> {
+    validator: &'a Validator,
+    table: &'a Arc<dyn Brdf>,
+    target_de: f64,
+    budget: TargetBudget,
+    start: Instant,
+}
+
+/// The elevation cut `settings` fits within, if any.
+fn fitted_within(settings: &brdf::BrdfFitSettings) -> Option<f64> {
+    let degrees = settings.reduction().max_elevation_deg;
+    (degrees < 90.0).then_some(degrees)
+}
+
+/// One tolerance's fit, evaluated within the cut its renders prefer.
+struct Measured {
+    fitted: brdf::FittedBrdf,
+    errors: RenderErrors,
+    attempt: TargetAttempt,
+}
+
+/// The fit of `settings` at perceptual half-width `t`, measured and given
+/// its evaluation cut ([`choose_evaluation_cut`], within the byte budget
+/// when it can be); `None` when no fit is within the coefficient budget.
+fn fit_at(
+    goal: &Goal,
+    settings: &brdf::BrdfFitSettings,
+    t: f64,
+) -> Result<Option<Measured>, RenderError> {
+    let (validator, table, budget) = (goal.validator, goal.table, goal.budget);
+    let design = settings.design().copied().unwrap_or_default();
+    let s = settings.clone().with_design(brdf::PerceptualBounds {
+        rel_tol: t,
+        ..design
+    });
+    let (fitted, widened) = match brdf::fit_brdf(table.as_ref(), &s) {
+        Ok((f, r)) => {
+            let w = r
+                .channels
+                .iter()
+                .map(|c| c.interval_scale)
+                .fold(1.0, f64::max);
+            (f, w)
+        }
+        Err(brdf::BrdfError::Fit {
+            source: rational_core::FitError::NoFeasibleFit { .. },
+            ..
+        }) => return Ok(None),
+        Err(e) => {
+            return Err(RenderError::Material {
+                name: table.name(),
+                source: e,
+            })
+        }
+    };
+    let errors = validator.measure(Arc::new(crate::scene::FitInDomain::new(fitted.clone())))?;
+    let choice = choose_evaluation_cut(
+        validator,
+        table.as_ref(),
+        fitted,
+        errors,
+        Some(goal.target_de),
+        budget.bytes,
+    )?;
+    let bytes = choice.fitted.byte_size_f32();
+    let attempt = TargetAttempt {
+        dims: settings.reduction().dims(),
+        rel_tol: t,
+        result: Some((bytes, choice.errors.worst_mean())),
+        widened,
+        cut: choice.cut,
+        shell: choice.shell,
+        over_budget: budget.passed_by(bytes),
+        fitted_within: fitted_within(settings),
+    };
+    Ok(Some(Measured {
+        fitted: choice.fitted,
+        errors: choice.errors,
+        attempt,
+    }))
+}
+
 /// Tries tolerances with `settings`' reduction, loosest first, until one
 /// reaches the target, `deadline` passes (checked between fits), a
-/// tolerance has no fit within the coefficient budget (tighter ones would
-/// not either), or, with `stop_at_floor`, a tighter tolerance improves the
-/// error by less than 10% (the reduction's own error dominates). When even
-/// the loosest has no fit, looser ones follow. A channel's intervals are
+/// tolerance has no fit within the coefficient budget or passes the byte
+/// budget (tighter ones would not do better), or, with `stop_at_floor`, a
+/// tighter tolerance improves the error by less than 10% (the reduction's
+/// own error dominates). When even the loosest has no fit, looser ones
+/// follow; when its fit passes the byte budget, looser ones by sqrt 2
+/// follow until one fits within it. A channel's intervals are
 /// widened by [`WIDEN_STEP`] at most [`MAX_WIDENINGS`] times (reported):
 /// widened further, a perceptual design's floors and caps stop meaning
 /// anything.
 fn search_tolerances(
-    validator: &Validator,
-    table: &Arc<dyn Brdf>,
-    target_de: f64,
+    goal: &Goal,
     settings: &brdf::BrdfFitSettings,
-    tolerances: usize,
-    deadline: (Instant, f64),
+    tolerances: &[f64],
+    deadline_s: f64,
     stop_at_floor: bool,
 ) -> Result<Search, RenderError> {
-    let design = settings.design().copied().unwrap_or_default();
-    let dims = settings.reduction().dims();
-    let engine = settings
-        .fit_settings()
+    let settings = settings
         .clone()
-        .with_widening(WIDEN_STEP, MAX_WIDENINGS)
-        .map_err(|e| crate::error::invalid("fit settings", e.to_string()))?;
+        .with_fit_settings(target_engine(settings, goal.budget)?);
     let mut search = Search {
         best: None,
         tried: Vec::new(),
     };
     let mut previous = f64::INFINITY;
-    let mut queue: Vec<f64> = TOLERANCES[..tolerances].to_vec();
-    let (mut k, mut loosened) = (0, false);
+    let mut queue: Vec<f64> = tolerances.to_vec();
+    let (mut k, mut loosened, mut loosened_for_bytes) = (0, false, false);
+    let past_deadline = || goal.start.elapsed().as_secs_f64() > deadline_s;
     while k < queue.len() {
         let t = queue[k];
         k += 1;
-        let s = settings
-            .clone()
-            .with_fit_settings(engine.clone())
-            .with_design(brdf::PerceptualBounds {
+        let Some(m) = fit_at(goal, &settings, t)? else {
+            search.tried.push(TargetAttempt {
+                dims: settings.reduction().dims(),
                 rel_tol: t,
-                ..design
+                result: None,
+                widened: 1.0,
+                cut: None,
+                shell: false,
+                over_budget: false,
+                fitted_within: fitted_within(&settings),
             });
-        let (fitted, widened) = match brdf::fit_brdf(table.as_ref(), &s) {
-            Ok((f, r)) => {
-                let w = r
-                    .channels
-                    .iter()
-                    .map(|c| c.interval_scale)
-                    .fold(1.0, f64::max);
-                (f, w)
+            if search.best.is_none() && !loosened {
+                // Even the loosest is infeasible: loosen instead.
+                queue = LOOSER.to_vec();
+                k = 0;
+                loosened = true;
+                continue;
             }
-            Err(brdf::BrdfError::Fit {
-                source: rational_core::FitError::NoFeasibleFit { .. },
-                ..
-            }) => {
-                search.tried.push(TargetAttempt {
-                    dims,
-                    rel_tol: t,
-                    result: None,
-                    widened: 1.0,
-                    cut: None,
-                    shell: false,
-                });
-                if search.best.is_none() && !loosened {
-                    // Even the loosest is infeasible: loosen instead.
-                    queue = LOOSER.to_vec();
-                    k = 0;
-                    loosened = true;
-                    continue;
-                }
-                if search.best.is_none() && k < queue.len() {
-                    continue;
-                }
+            if search.best.is_none() && k < queue.len() {
+                continue;
+            }
+            break;
+        };
+        let over_budget = m.attempt.over_budget;
+        let worst = m.errors.worst_mean();
+        search.tried.push(m.attempt.clone());
+        if over_budget {
+            if search.best.is_some() || past_deadline() {
+                // Tighter intervals than a fit within the budget only grow.
                 break;
             }
-            Err(e) => {
-                return Err(RenderError::Material {
-                    name: table.name(),
-                    source: e,
-                })
+            if !loosened_for_bytes {
+                queue = looser_for_bytes(t);
+                k = 0;
+                loosened_for_bytes = true;
             }
-        };
-        let errors = validator.measure(Arc::new(crate::scene::FitInDomain::new(fitted.clone())))?;
-        let choice =
-            choose_evaluation_cut(validator, table.as_ref(), fitted, errors, Some(target_de))?;
-        let (fitted, errors) = (choice.fitted, choice.errors);
-        let worst = errors.worst_mean();
-        search.tried.push(TargetAttempt {
-            dims,
-            rel_tol: t,
-            result: Some((fitted.byte_size_f32(), worst)),
-            widened,
-            cut: choice.cut,
-            shell: choice.shell,
-        });
-        let reached = worst <= target_de;
+            continue;
+        }
+        let reached = worst <= goal.target_de;
         if reached || worst < search.worst() {
-            search.best = Some((fitted, errors, t, choice.cut));
+            search.best = Some(m);
         }
         let at_floor = stop_at_floor && worst > 0.9 * previous;
         previous = previous.min(worst);
-        // Among the loosened tolerances the first feasible one is the best.
-        if reached || at_floor || loosened || deadline.0.elapsed().as_secs_f64() > deadline.1 {
+        // Among the loosened tolerances the first feasible one (within the
+        // byte budget) is the best.
+        if reached || at_floor || loosened || loosened_for_bytes || past_deadline() {
             break;
         }
     }
     Ok(search)
+}
+
+/// The elevation (degrees) within which a 3-D fit is also made when a
+/// byte budget leaves the target unreached: its functions spend nothing on
+/// the grazing cells (the shell factor and the clamp to the cut carry
+/// them), so the same intervals cost fewer coefficients.
+pub const TARGET_CUT_DEGREES: f64 = 70.0;
+
+/// The best fit of a search, if any, with its attempt.
+type Best = Option<Measured>;
+
+/// The searches of [`fit_to_target`] in turn, each only while the target is
+/// unreached: the 2-D slice (with [`TargetReduction::Auto`]), `base`'s 3-D
+/// grid, and with a byte budget, the 3-D grid fitted within
+/// [`TARGET_CUT_DEGREES`] (from the tightest tolerance the whole-hemisphere
+/// fits passed the budget at) and, when nothing is within the budget yet,
+/// the 3-D grid with the budget split evenly between the functions. Returns
+/// why the fit was chosen, the fit with the lowest worse-scene error (the
+/// earlier search between equal errors), and every attempt.
+fn run_searches(
+    goal: &Goal,
+    base: &brdf::BrdfFitSettings,
+    reduction: TargetReduction,
+) -> Result<(String, Best, Vec<TargetAttempt>), RenderError> {
+    let budget_s = goal.budget.seconds;
+    let dims = base.reduction().dims();
+    let mut searches: Vec<(String, Search)> = Vec::new();
+    let reached =
+        |searches: &[(String, Search)]| searches.iter().any(|(_, s)| s.worst() <= goal.target_de);
+    if reduction == TargetReduction::Auto {
+        let r = on_target_grid(
+            base.reduction()
+                .with_kind(brdf::ReductionKind::Slice2d)
+                .whole_hemisphere(),
+        );
+        let settings = base.clone().with_reduction(r);
+        let s = search_tolerances(goal, &settings, &TOLERANCES[..3], 0.4 * budget_s, true)?;
+        searches.push(("the 2-D slice".into(), s));
+    }
+    if !reached(&searches) {
+        let s = search_tolerances(goal, base, &TOLERANCES, budget_s, false)?;
+        searches.push((format!("the {dims}-D fits"), s));
+    }
+    let whole_3d = base.reduction().kind == brdf::ReductionKind::Full3d
+        && base.reduction().max_elevation_deg >= 90.0;
+    if let (Some(_), true, false) = (goal.budget.bytes, whole_3d, reached(&searches)) {
+        let over: Vec<f64> = searches
+            .last()
+            .map(|(_, s)| &s.tried)
+            .into_iter()
+            .flatten()
+            .filter(|a| a.over_budget)
+            .map(|a| a.rel_tol)
+            .collect();
+        let from = over.iter().copied().fold(TOLERANCES[0], f64::min);
+        let tolerances: Vec<f64> = TOLERANCES
+            .iter()
+            .copied()
+            .filter(|&t| t <= from * (1.0 + 1e-9))
+            .collect();
+        let tolerances = if tolerances.is_empty() {
+            vec![from]
+        } else {
+            tolerances
+        };
+        let settings = base
+            .clone()
+            .with_reduction(base.reduction().with_max_elevation(TARGET_CUT_DEGREES));
+        let s = search_tolerances(goal, &settings, &tolerances, budget_s, false)?;
+        searches.push((
+            format!("the {dims}-D fits within {TARGET_CUT_DEGREES} degrees"),
+            s,
+        ));
+    }
+    let found = searches.iter().any(|(_, s)| s.best.is_some());
+    if let (Some(bytes), false) = (goal.budget.bytes, found) {
+        let s = split_budget_search(goal, base, bytes, budget_s)?;
+        searches.push((
+            format!(
+                "the {dims}-D fits with the budget split evenly between the {} functions ({} coefficients each at most)",
+                base.colour_mode().names().len(),
+                split_cap(base, bytes)
+            ),
+            s,
+        ));
+    }
+    let tried = searches
+        .iter()
+        .flat_map(|(_, s)| s.tried.iter().cloned())
+        .collect();
+    let k = (0..searches.len())
+        .min_by(|&a, &b| searches[a].1.worst().total_cmp(&searches[b].1.worst()))
+        .unwrap_or(0);
+    let parts: Vec<String> = searches
+        .iter()
+        .map(|(what, s)| {
+            let w = s.worst();
+            match (w.is_finite(), what.contains("slice")) {
+                (true, true) => format!("{what} {w:.3} (what that reduction loses)"),
+                (true, false) => format!("{what} {w:.3}"),
+                (false, _) => format!("{what} none within the budget"),
+            }
+        })
+        .collect();
+    let why = match searches.get(k) {
+        Some((what, s)) if s.best.is_some() => format!(
+            "{what} chosen; the best fit of each search renders at (worse scene): {}",
+            parts.join(", ")
+        ),
+        _ => format!(
+            "no fit within the budget; the best fit of each search renders at (worse scene): {}",
+            parts.join(", ")
+        ),
+    };
+    let best = searches.swap_remove(k).1.best;
+    Ok((why, best, tried))
 }
 
 /// The smallest perceptual fit whose validation renders reach mean
@@ -345,9 +644,14 @@ fn search_tolerances(
 /// ([`super::choose_evaluation_cut`]). Tolerances from
 /// `+-16%` down to `+-2%` are tried in turn (looser intervals give fewer
 /// coefficients, usually), stopping at the first that reaches the target
-/// or when `budget_s` is spent (checked between fits, so the last fit may
-/// run past it); when none does, the fit with the lowest error is returned
-/// and the report says so.
+/// or when `budget.seconds` is spent (checked between fits, so the last fit
+/// may run past it); when none does, the fit with the lowest error is
+/// returned and the report says so. With `budget.bytes`, only fits within
+/// it are returned: no function is given more coefficients than the budget
+/// holds, a shell factor that would pass it is left out, and a tolerance
+/// whose fit passes it is followed by looser ones (by sqrt 2, to +-64%)
+/// instead of tighter ones; when still no fit is within it, the 3-D
+/// search runs again with the budget split evenly between the functions.
 ///
 /// With [`TargetReduction::Auto`], the 2-D slice (90 x 90 grid) is tried
 /// first, at most 40% of the budget: it costs fewer bytes, but its
@@ -362,14 +666,16 @@ fn search_tolerances(
 /// ([`GridFloor`]).
 ///
 /// # Errors
-/// A non-positive target, or a fit or render that fails.
+/// A non-positive target or time budget, a byte budget under 8 bytes, no
+/// fit within the coefficient or byte budget even at the loosest
+/// tolerance, or a fit or render that fails.
 pub fn fit_to_target(
     table: Arc<dyn Brdf>,
     target_de: f64,
     base: &brdf::BrdfFitSettings,
     reduction: TargetReduction,
     validation: ValidationSettings,
-    budget_s: f64,
+    budget: TargetBudget,
 ) -> Result<(brdf::FittedBrdf, TargetReport), RenderError> {
     let start = Instant::now();
     if !(target_de > 0.0 && target_de.is_finite()) {
@@ -378,72 +684,56 @@ pub fn fit_to_target(
             format!("{target_de} is not a positive number"),
         ));
     }
-    let validator = Validator::new(table.clone(), validation)?;
-    let mut tried = Vec::new();
-    let mut slice: Option<Search> = None;
-    if reduction == TargetReduction::Auto {
-        let r = on_target_grid(
-            base.reduction()
-                .with_kind(brdf::ReductionKind::Slice2d)
-                .whole_hemisphere(),
-        );
-        let settings = base.clone().with_reduction(r);
-        let s = search_tolerances(
-            &validator,
-            &table,
-            target_de,
-            &settings,
-            3,
-            (start, 0.4 * budget_s),
-            true,
-        )?;
-        tried.extend(s.tried.iter().cloned());
-        slice = Some(s);
-    }
-    let slice_reached = slice.as_ref().is_some_and(|s| s.worst() <= target_de);
-    let full = if slice_reached {
-        None
-    } else {
-        let s = search_tolerances(
-            &validator,
-            &table,
-            target_de,
-            base,
-            TOLERANCES.len(),
-            (start, budget_s),
-            false,
-        )?;
-        tried.extend(s.tried.iter().cloned());
-        Some(s)
-    };
-    let slice_worst = slice.as_ref().map_or(f64::INFINITY, Search::worst);
-    let full_worst = full.as_ref().map_or(f64::INFINITY, Search::worst);
-    let why = match (&slice, &full) {
-        (Some(_), None) => {
-            format!("the 2-D slice reaches the target ({slice_worst:.3}); no 3-D fit needed")
-        }
-        (Some(_), Some(_)) => format!(
-            "the 2-D slice's best fit renders at {slice_worst:.3} (what the reduction loses); \
-             the {}-D fits reach {full_worst:.3}",
-            base.reduction().dims()
-        ),
-        _ => format!("the {}-D reduction was asked for", base.reduction().dims()),
-    };
-    let chosen = match (slice, full) {
-        (Some(s), Some(f)) if s.worst() < f.worst() => s,
-        (Some(s), None) => s,
-        (_, Some(f)) => f,
-        (None, None) => unreachable!("one reduction is always searched"),
-    };
-    let Some((fitted, errors, rel_tol, evaluation_cut)) = chosen.best else {
+    if !(budget.seconds > 0.0 && budget.seconds.is_finite()) {
         return Err(crate::error::invalid(
-            "target_de",
-            format!(
-                "no perceptual fit of {} within the coefficient budget, even at +-{}%",
-                table.name(),
-                LOOSER[LOOSER.len() - 1] * 100.0
-            ),
+            "time budget",
+            format!("{} is not a positive number of seconds", budget.seconds),
         ));
+    }
+    if let Some(bytes) = budget.bytes.filter(|&b| b < 8) {
+        return Err(crate::error::invalid(
+            "max_bytes",
+            format!("{bytes} bytes cannot hold a rational function (at least 2 coefficients of 4 bytes)"),
+        ));
+    }
+    let validator = Validator::new(table.clone(), validation)?;
+    let goal = Goal {
+        validator: &validator,
+        table: &table,
+        target_de,
+        budget,
+        start,
+    };
+    let (why, chosen, tried) = run_searches(&goal, base, reduction)?;
+    let Some(Measured {
+        fitted,
+        errors,
+        attempt,
+    }) = chosen
+    else {
+        let smallest = tried
+            .iter()
+            .filter_map(|a| a.result.map(|(bytes, _)| bytes))
+            .min();
+        let loosest_tried = tried.iter().map(|a| a.rel_tol).fold(0.0, f64::max);
+        return Err(match (budget.bytes, smallest) {
+            (Some(max), Some(smallest)) => crate::error::invalid(
+                "max_bytes",
+                format!(
+                    "no perceptual fit of {} within {max} bytes, even at +-{}%: the smallest tried has {smallest} bytes",
+                    table.name(),
+                    brdf::scale_text(loosest_tried * 100.0)
+                ),
+            ),
+            _ => crate::error::invalid(
+                "target_de",
+                format!(
+                    "no perceptual fit of {} within the coefficient budget, even at +-{}%",
+                    table.name(),
+                    brdf::scale_text(LOOSER[LOOSER.len() - 1] * 100.0)
+                ),
+            ),
+        });
     };
     let reached = errors.worst_mean() <= target_de;
     let grid_floor = if !reached && fitted.reduction.kind == brdf::ReductionKind::Full3d {
@@ -470,9 +760,12 @@ pub fn fit_to_target(
         colour_split,
         dims: fitted.reduction.dims(),
         why,
-        rel_tol,
+        rel_tol: attempt.rel_tol,
         bytes: fitted.byte_size_f32(),
-        evaluation_cut,
+        max_bytes: budget.bytes,
+        evaluation_cut: attempt.cut,
+        fitted_within: attempt.fitted_within,
+        widened: attempt.widened,
         shell_bytes: fitted.shell.as_ref().map(brdf::ShellFactor::byte_size_f32),
         scenes: errors.scenes.clone(),
         noise: validator.noise.clone(),

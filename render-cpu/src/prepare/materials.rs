@@ -132,6 +132,7 @@ impl MaterialBuilder<'_> {
             dims,
             max_coeffs,
             target_de,
+            max_bytes,
             max_elevation,
             lobe,
         } = desc.clone()
@@ -140,12 +141,21 @@ impl MaterialBuilder<'_> {
         };
         let start = Instant::now();
         let what = format!("material {name}");
-        // Fits without a lobe or a cut keep the keys they had before those
-        // keys existed.
+        if max_bytes.is_some() && target_de.is_none() {
+            return Err(crate::error::invalid(
+                "max_bytes",
+                format!(
+                    "material {name}: max_bytes bounds a target_de fit; give target_de as well"
+                ),
+            ));
+        }
+        // Fits without a lobe, a cut or a byte budget keep the keys they had
+        // before those keys existed.
         let settings_text = format!(
-            "fitted source={source} rel_tol={rel_tol} dims={dims} max_coeffs={max_coeffs} target_de={target_de:?}{}{}",
+            "fitted source={source} rel_tol={rel_tol} dims={dims} max_coeffs={max_coeffs} target_de={target_de:?}{}{}{}",
             if lobe { " lobe=ggx" } else { "" },
-            max_elevation.map_or(String::new(), |e| format!(" max_elevation={e}"))
+            max_elevation.map_or(String::new(), |e| format!(" max_elevation={e}")),
+            max_bytes.map_or(String::new(), |b| format!(" max_bytes={b}"))
         );
         let fitted = match self
             .cache
@@ -167,7 +177,11 @@ impl MaterialBuilder<'_> {
                     .map_err(|e| self.material_error(name, e))?
                     .with_lobe(lobe.then(|| brdf::Lobe::fit(src.as_ref())));
                 let (fitted, summary) = match target_de {
-                    Some(target) => fit_for_target(&src, target, settings, max_elevation)?,
+                    Some(target) => {
+                        let budget =
+                            crate::fidelity::TargetBudget::seconds(60.0).with_bytes(max_bytes);
+                        fit_for_target(&src, target, settings, max_elevation, budget)?
+                    }
                     None => {
                         let (f, report) = brdf::fit_brdf(src.as_ref(), &settings)
                             .map_err(|e| self.material_error(name, e))?;
@@ -313,13 +327,14 @@ impl MaterialBuilder<'_> {
 /// A scene's `target_de` fit: luminance-chroma over the whole hemisphere
 /// (or within `max_elevation`), the 2-D slice first and the grid of
 /// [`crate::fidelity::TARGET_GRID_3D`] when the slice cannot reach the
-/// target, validated at 64 x 64 pixels within 60 s; returns the fit and
-/// what it reached.
+/// target, validated at 64 x 64 pixels within `budget` (60 s); returns
+/// the fit and what it reached.
 fn fit_for_target(
     src: &Arc<dyn Brdf>,
     target: f64,
     settings: BrdfFitSettings,
     max_elevation: Option<f64>,
+    budget: crate::fidelity::TargetBudget,
 ) -> Result<(FittedBrdf, String), RenderError> {
     let grid = crate::fidelity::on_target_grid(
         Reduction::default()
@@ -349,7 +364,7 @@ fn fit_for_target(
         &settings,
         crate::fidelity::TargetReduction::Auto,
         validation,
-        60.0,
+        budget,
     )?;
     let summary = format!(
         "target CIEDE2000 {}: {}",
