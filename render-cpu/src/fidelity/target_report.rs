@@ -1,0 +1,219 @@
+//! What [`super::fit_to_target`] spends and reports: the budget, each fit
+//! tried, the table's own error on the fitted grid, and the report.
+
+use super::{SceneError, ValidationScene};
+use serde::Serialize;
+
+/// One fit tried by [`super::fit_to_target`].
+#[derive(Debug, Clone, Serialize)]
+pub struct TargetAttempt {
+    /// Fitting coordinates: 2 (the slice) or 3.
+    pub dims: usize,
+    /// Perceptual relative half-width.
+    pub rel_tol: f64,
+    /// Bytes (f32) and the worse mean CIEDE2000 of the two scenes; `None`
+    /// when no fit within the coefficient budget meets these intervals.
+    pub result: Option<(usize, f64)>,
+    /// The largest factor a channel's intervals were widened by (1: none).
+    pub widened: f64,
+    /// The evaluation cut chosen for this fit by the validation renders
+    /// (degrees; `None`: the whole hemisphere). See
+    /// [`super::choose_evaluation_cut`].
+    pub cut: Option<f64>,
+    /// Whether a shell factor beyond that cut was chosen with it.
+    pub shell: bool,
+    /// Whether its bytes pass the byte budget ([`TargetBudget::bytes`]), so
+    /// that it could not be returned.
+    pub over_budget: bool,
+    /// The elevation cut (degrees) the functions were fitted within;
+    /// `None`: the whole hemisphere.
+    pub fitted_within: Option<f64>,
+}
+
+/// What [`super::fit_to_target`] may spend.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct TargetBudget {
+    /// Seconds of fits and renders, checked between fits (the last fit
+    /// may run past it).
+    pub seconds: f64,
+    /// Bytes (f32) of the fit returned, its shell factor included; `None`:
+    /// no limit. Fits that pass it are tried and reported, never returned.
+    pub bytes: Option<usize>,
+}
+
+impl TargetBudget {
+    /// `seconds` and no byte limit.
+    pub fn seconds(seconds: f64) -> Self {
+        TargetBudget {
+            seconds,
+            bytes: None,
+        }
+    }
+
+    /// `self` with a byte limit.
+    pub fn with_bytes(self, bytes: Option<usize>) -> Self {
+        TargetBudget { bytes, ..self }
+    }
+
+    pub(super) fn passed_by(&self, bytes: usize) -> bool {
+        self.bytes.is_some_and(|m| bytes > m)
+    }
+}
+
+/// The table averaged over the cells of the grid a 3-D fit samples
+/// ([`brdf::DownsampledTable`], interpolated between cell centres) and
+/// rendered on the validation scenes: what that sampling alone loses. A
+/// fit of those samples rarely renders much below it, so a target under it
+/// asks for a finer grid (`theta_h` first) before tighter intervals.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct GridFloor {
+    /// `theta_h`, `theta_d` and `phi_d` bins of the grid.
+    pub bins: [usize; 3],
+    /// The larger mean CIEDE2000 of the two scenes.
+    pub worst_mean_de: f64,
+}
+
+/// What [`super::fit_to_target`] reached.
+#[derive(Debug, Clone, Serialize)]
+pub struct TargetReport {
+    /// The target: mean CIEDE2000 on both validation scenes.
+    pub target_de: f64,
+    /// Whether the chosen fit reaches it.
+    pub reached: bool,
+    /// Fitting coordinates of the chosen fit.
+    pub dims: usize,
+    /// Why this reduction was chosen.
+    pub why: String,
+    /// The perceptual half-width of the chosen fit.
+    pub rel_tol: f64,
+    /// The largest factor a channel's intervals were widened by in the
+    /// chosen fit (1: none).
+    pub widened: f64,
+    /// Bytes of the chosen fit (f32).
+    pub bytes: usize,
+    /// The byte budget the fit was chosen within; `None`: none.
+    pub max_bytes: Option<usize>,
+    /// The evaluation cut chosen by the validation renders for a fit over
+    /// the whole hemisphere (degrees; `None`: none).
+    pub evaluation_cut: Option<f64>,
+    /// The elevation cut (degrees) the chosen fit's functions were fitted
+    /// within; `None`: the whole hemisphere.
+    pub fitted_within: Option<f64>,
+    /// Bytes of the shell factor beyond that cut ([`brdf::ShellFactor`]),
+    /// included in `bytes`, when the renders chose one.
+    pub shell_bytes: Option<usize>,
+    /// Its render errors, lights first.
+    pub scenes: Vec<SceneError>,
+    /// The table against itself with another seed (noise of the comparison).
+    pub noise: Vec<SceneError>,
+    /// When the target is not reached by a 3-D fit: what the table itself
+    /// renders at on the grid that fit samples (see [`GridFloor`]).
+    pub grid_floor: Option<GridFloor>,
+    /// When the target is not reached: the render error of the fit's
+    /// luminance alone and of its colour alone ([`super::colour_split`]),
+    /// which says which functions to improve.
+    pub colour_split: Option<super::ColourSplit>,
+    /// Every fit tried, in order.
+    pub tried: Vec<TargetAttempt>,
+    /// Total time in seconds (fits and renders).
+    pub seconds: f64,
+}
+
+impl std::fmt::Display for TargetReport {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        writeln!(
+            f,
+            "target mean CIEDE2000 <= {}: {} with a {}-D fit, perceptual intervals of +-{}% ({} bytes{})",
+            self.target_de,
+            if self.reached {
+                "reached"
+            } else {
+                "NOT reached; the closest fit within the budget"
+            },
+            self.dims,
+            brdf::scale_text(self.rel_tol * 100.0),
+            self.bytes,
+            self.max_bytes
+                .map_or(String::new(), |m| format!(" of at most {m}"))
+        )?;
+        writeln!(f, "  {}", self.why)?;
+        if let Some(c) = self.fitted_within {
+            writeln!(
+                f,
+                "  fitted within {c} degrees of the normal (no coefficients spent beyond; directions beyond are evaluated at the cut)"
+            )?;
+        } else if let Some(c) = self.evaluation_cut {
+            writeln!(
+                f,
+                "  evaluated within {c} degrees of the normal (directions beyond moved onto the cut; chosen by the validation renders)"
+            )?;
+        }
+        if let Some(b) = self.shell_bytes {
+            writeln!(
+                f,
+                "  beyond the cut, a shell factor of {b} bytes scales the fit to the table's luminance, cell by cell of theta_h x theta_d (chosen by the validation renders)"
+            )?;
+        }
+        for (k, scene) in ValidationScene::ALL.iter().enumerate() {
+            writeln!(
+                f,
+                "  {:<6} mean CIEDE2000 {:.3}, p99 {:.2} (table against itself: {:.3})",
+                scene.name(),
+                self.scenes[k].mean_de,
+                self.scenes[k].p99_de,
+                self.noise[k].mean_de
+            )?;
+        }
+        if let Some(g) = self.grid_floor {
+            let [h, d, p] = g.bins;
+            writeln!(
+                f,
+                "  the table itself, averaged over the {h} x {d} x {p} grid the fit samples, renders at {:.3} (worse scene){}",
+                g.worst_mean_de,
+                if g.worst_mean_de > self.target_de {
+                    ": the target needs a finer grid (theta_h first)"
+                } else {
+                    ""
+                }
+            )?;
+        }
+        if let Some(split) = &self.colour_split {
+            writeln!(f, "  {}", split.describe("the fit"))?;
+        }
+        for a in &self.tried {
+            match a.result {
+                Some((bytes, worst)) => writeln!(
+                    f,
+                    "  tried {}-D{} +-{}%{}: {bytes} bytes{}, worse mean CIEDE2000 {worst:.3}{}",
+                    a.dims,
+                    a.fitted_within
+                        .map_or(String::new(), |c| format!(" within {c} degrees")),
+                    brdf::scale_text(a.rel_tol * 100.0),
+                    if a.widened > 1.0 {
+                        format!(" (widened x{})", brdf::scale_text(a.widened))
+                    } else {
+                        String::new()
+                    },
+                    if a.over_budget {
+                        " (over the byte budget)"
+                    } else {
+                        ""
+                    },
+                    a.cut.map_or(String::new(), |c| format!(
+                        " evaluated within {c} degrees{}",
+                        if a.shell { " with a shell factor" } else { "" }
+                    ))
+                )?,
+                None => writeln!(
+                    f,
+                    "  tried {}-D{} +-{}%: no fit within the coefficient budget",
+                    a.dims,
+                    a.fitted_within
+                        .map_or(String::new(), |c| format!(" within {c} degrees")),
+                    brdf::scale_text(a.rel_tol * 100.0)
+                )?,
+            }
+        }
+        write!(f, "  {:.1} s", self.seconds)
+    }
+}
