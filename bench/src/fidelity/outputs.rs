@@ -322,71 +322,7 @@ pub(super) fn check(
     }
     for (m, _) in noise {
         let reps: Vec<&Row> = rows.iter().filter(|r| &r.material == m).collect();
-        if !reps
-            .iter()
-            .any(|r| r.representation.starts_with("rational"))
-        {
-            problems.push(format!("{m}: no rational representation was measured"));
-        }
-        for (prefix, what) in [
-            ("table downsampled", "no downsampled table was measured"),
-            (
-                "table on",
-                "the table on the 3-D fits' grid was not measured",
-            ),
-        ] {
-            if !reps.iter().any(|r| r.representation.starts_with(prefix)) {
-                problems.push(format!("{m}: {what}"));
-            }
-        }
-        // Every fit evaluated within a cut is also measured with each of its
-        // shell factors, which cost bytes.
-        for plain in reps.iter().filter(|r| {
-            r.representation.contains("evaluated within")
-                && !r.representation.contains(", shell factor")
-        }) {
-            for [nh, nd] in brdf::SHELL_BIN_CHOICES {
-                let name = format!(
-                    "{}, shell factor{}",
-                    plain.representation,
-                    shell_row_suffix([nh, nd])
-                );
-                match reps.iter().find(|r| r.representation == name) {
-                    Some(r) if r.bytes == plain.bytes + 4 * nh * nd => {}
-                    Some(r) => problems.push(format!(
-                        "{m}: {name} has {} bytes, not the fit's {} and {} for its factors",
-                        r.bytes,
-                        plain.bytes,
-                        4 * nh * nd
-                    )),
-                    None => problems.push(format!("{m}: {name} was not measured")),
-                }
-            }
-        }
-        if let Some(max) = target_bytes {
-            match reps
-                .iter()
-                .find(|r| r.representation.starts_with("rational target"))
-            {
-                Some(r) if r.bytes <= max => {}
-                Some(r) => problems.push(format!(
-                    "{m}: the target fit has {} bytes, over its budget of {max}",
-                    r.bytes
-                )),
-                None => problems.push(format!("{m}: the target fit was not measured")),
-            }
-        }
-        for scene in ValidationScene::ALL {
-            if !out
-                .join(format!("{}-{}-table.png", slug(m), scene.name()))
-                .is_file()
-            {
-                problems.push(format!(
-                    "{m}: the table's {} image is missing",
-                    scene.name()
-                ));
-            }
-        }
+        problems.extend(check_material(out, m, &reps, target_bytes));
     }
     for r in rows {
         let figures = [
@@ -405,6 +341,79 @@ pub(super) fn check(
             problems.push(format!(
                 "{} / {}: a fit is not verified",
                 r.material, r.representation
+            ));
+        }
+    }
+    problems
+}
+
+/// The checks of one material's rows `reps`: every kind of representation
+/// measured, each evaluation within a cut also with each shell factor, the
+/// target fit (with `target_bytes`) within its budget, the table's images.
+fn check_material(out: &Path, m: &str, reps: &[&Row], target_bytes: Option<usize>) -> Vec<String> {
+    let mut problems = Vec::new();
+    if !reps
+        .iter()
+        .any(|r| r.representation.starts_with("rational"))
+    {
+        problems.push(format!("{m}: no rational representation was measured"));
+    }
+    for (prefix, what) in [
+        ("table downsampled", "no downsampled table was measured"),
+        (
+            "table on",
+            "the table on the 3-D fits' grid was not measured",
+        ),
+    ] {
+        if !reps.iter().any(|r| r.representation.starts_with(prefix)) {
+            problems.push(format!("{m}: {what}"));
+        }
+    }
+    // Every fit evaluated within a cut is also measured with each of its
+    // shell factors, which cost bytes.
+    for plain in reps.iter().filter(|r| {
+        r.representation.contains("evaluated within")
+            && !r.representation.contains(", shell factor")
+    }) {
+        for [nh, nd] in brdf::SHELL_BIN_CHOICES {
+            let name = format!(
+                "{}, shell factor{}",
+                plain.representation,
+                shell_row_suffix([nh, nd])
+            );
+            match reps.iter().find(|r| r.representation == name) {
+                Some(r) if r.bytes == plain.bytes + 4 * nh * nd => {}
+                Some(r) => problems.push(format!(
+                    "{m}: {name} has {} bytes, not the fit's {} and {} for its factors",
+                    r.bytes,
+                    plain.bytes,
+                    4 * nh * nd
+                )),
+                None => problems.push(format!("{m}: {name} was not measured")),
+            }
+        }
+    }
+    if let Some(max) = target_bytes {
+        match reps
+            .iter()
+            .find(|r| r.representation.starts_with("rational target"))
+        {
+            Some(r) if r.bytes <= max => {}
+            Some(r) => problems.push(format!(
+                "{m}: the target fit has {} bytes, over its budget of {max}",
+                r.bytes
+            )),
+            None => problems.push(format!("{m}: the target fit was not measured")),
+        }
+    }
+    for scene in ValidationScene::ALL {
+        if !out
+            .join(format!("{}-{}-table.png", slug(m), scene.name()))
+            .is_file()
+        {
+            problems.push(format!(
+                "{m}: the table's {} image is missing",
+                scene.name()
             ));
         }
     }

@@ -65,7 +65,7 @@ const TOLERANCES: [f64; 4] = [0.16, 0.08, 0.04, 0.02];
 const LOOSER: [f64; 2] = [0.32, 0.64];
 
 /// The loosest tolerance tried when fits pass the byte budget.
-const LOOSEST: f64 = 0.64;
+const LOOSEST: f64 = LOOSER[LOOSER.len() - 1];
 
 /// Tolerances after `t` tried when its fit passes the byte budget: looser
 /// by sqrt 2 each, up to [`LOOSEST`] (fewer coefficients, and bytes are
