@@ -55,6 +55,7 @@ mod geometry;
 mod image;
 mod integrator;
 mod light;
+mod linear;
 pub mod math;
 mod mesh;
 mod prepare;
