@@ -370,14 +370,11 @@ fn run_fit_target(
     }
     let material: std::sync::Arc<dyn Brdf> = load_material(&args.material, &args.format)?.into();
     let colour = args.colour.unwrap_or(brdf::ColourMode::LuminanceChroma);
-    let mut settings = BrdfFitSettings::default()
+    let mut settings = render_cpu::fidelity::target_settings(fit_settings)
         .with_reduction(reduction)
-        .with_baselines(false)
         .with_colour_mode(colour)
         .with_lobe(args.lobe.then(|| brdf::Lobe::fit(material.as_ref())))
-        .with_design(brdf::PerceptualBounds::default())
-        .with_cap_rounds(args.cap_rounds)?
-        .with_fit_settings(fit_settings);
+        .with_cap_rounds(args.cap_rounds)?;
     if let Some(bar) = crate::progress::channel_bar(colour.names()) {
         settings = settings.with_channel_progress(bar);
     }

@@ -38,7 +38,9 @@ pub use cut::{
     choose_evaluation_cut, render_check_choosing_cut, CutChoice, CutTried, EVALUATION_CUTS,
 };
 pub use split::{colour_split, ColourSplit};
-pub use target::{fit_to_target, on_target_grid, TargetReduction, TARGET_GRID_3D, TARGET_SLICE};
+pub use target::{
+    fit_to_target, on_target_grid, target_settings, TargetReduction, TARGET_GRID_3D, TARGET_SLICE,
+};
 pub use target_report::{GridFloor, TargetAttempt, TargetBudget, TargetReport};
 
 /// The two validation scenes.

@@ -140,22 +140,12 @@ fn fit_target(
     max_coeffs: usize,
 ) -> Result<(brdf::FittedBrdf, String)> {
     use render_cpu::fidelity::{
-        fit_to_target, on_target_grid, TargetBudget, TargetReduction, ValidationSettings,
+        fit_to_target, target_settings, TargetBudget, TargetReduction, ValidationSettings,
     };
-    let reduction = on_target_grid(
-        brdf::Reduction::default()
-            .with_kind(brdf::ReductionKind::Full3d)
-            .whole_hemisphere(),
-    );
     let engine = rational_core::FitSettings::default()
         .with_coeff_range(2, max_coeffs)?
         .with_search(rational_core::Search::Staircase);
-    let settings = brdf::BrdfFitSettings::default()
-        .with_reduction(reduction)
-        .with_baselines(false)
-        .with_colour_mode(ColourMode::LuminanceChroma)
-        .with_design(brdf::PerceptualBounds::default())
-        .with_fit_settings(engine);
+    let settings = target_settings(engine);
     let budget = TargetBudget::seconds(target.seconds).with_bytes(target.max_bytes);
     let (fitted, report) = fit_to_target(
         table.clone(),

@@ -57,6 +57,26 @@ pub fn on_target_grid(reduction: brdf::Reduction) -> brdf::Reduction {
     }
 }
 
+/// The settings a target fit starts from: the 3-D grid of
+/// [`TARGET_GRID_3D`] over the whole hemisphere, the luminance-chroma
+/// mode, the perceptual design (its half-width is the search's) and
+/// `engine` (ratfit's commands give it the staircase search), without
+/// baselines. Callers change what their user chose: the grid or an
+/// elevation cut, the colour mode, a lobe.
+pub fn target_settings(engine: rational_core::FitSettings) -> brdf::BrdfFitSettings {
+    let reduction = on_target_grid(
+        brdf::Reduction::default()
+            .with_kind(brdf::ReductionKind::Full3d)
+            .whole_hemisphere(),
+    );
+    brdf::BrdfFitSettings::default()
+        .with_reduction(reduction)
+        .with_baselines(false)
+        .with_colour_mode(brdf::ColourMode::LuminanceChroma)
+        .with_design(brdf::PerceptualBounds::default())
+        .with_fit_settings(engine)
+}
+
 /// Tolerances tried, loosest first.
 const TOLERANCES: [f64; 4] = [0.16, 0.08, 0.04, 0.02];
 

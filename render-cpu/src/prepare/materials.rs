@@ -336,23 +336,18 @@ fn fit_for_target(
     max_elevation: Option<f64>,
     budget: crate::fidelity::TargetBudget,
 ) -> Result<(FittedBrdf, String), RenderError> {
-    let grid = crate::fidelity::on_target_grid(
-        Reduction::default()
-            .with_kind(ReductionKind::Full3d)
-            .whole_hemisphere(),
-    );
-    let grid = match max_elevation {
-        Some(degrees) => grid.with_max_elevation(degrees),
-        None => grid,
-    };
     let engine = settings
         .fit_settings()
         .clone()
         .with_search(rational_core::Search::Staircase);
-    let settings = settings
-        .with_fit_settings(engine)
-        .with_colour_mode(brdf::ColourMode::LuminanceChroma)
-        .with_reduction(grid);
+    let base = crate::fidelity::target_settings(engine).with_lobe(settings.lobe().cloned());
+    let settings = match max_elevation {
+        Some(degrees) => {
+            let grid = base.reduction().with_max_elevation(degrees);
+            base.with_reduction(grid)
+        }
+        None => base,
+    };
     let validation = crate::fidelity::ValidationSettings {
         size: 64,
         sky_spp: 32,
