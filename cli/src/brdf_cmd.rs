@@ -135,8 +135,8 @@ pub struct FitArgs {
     /// Skip the render check: by default a fit of a MERL or RGL table is
     /// rendered beside the table on the two validation scenes (64 x 64
     /// pixels, a few seconds) and the report states the CIEDE2000 reached;
-    /// with `--perceptual` it also chooses the evaluation cut (80, 75 or 70
-    /// degrees, or the fit's own) and whether a shell factor of 128 or 64
+    /// with `--perceptual` it also chooses the evaluation cut (80, 75, 70
+    /// or 65 degrees, or the fit's own) and whether a shell factor of 128 or 64
     /// bytes carries the table's luminance beyond it (`brdf::ShellFactor`);
     /// with `--target-de`, the fewest bytes that reach the target.
     #[arg(long)]

@@ -882,10 +882,10 @@ fn the_render_check_of_a_perceptual_fit_chooses_its_evaluation_cut() {
         .lines()
         .find(|l| l.starts_with("evaluation cut chosen by the validation renders"))
         .unwrap_or_else(|| panic!("no cut choice in\n{stdout}"));
-    // Ten evaluations measured: none, then 80, 75 and 70 degrees without
-    // and with each shell factor (8 x 4 and 4 x 4 cells).
-    assert_eq!(line.matches(", ").count(), 9, "{line}");
-    assert_eq!(line.matches("+shell ").count(), 6, "{line}");
+    // Thirteen evaluations measured: none, then 80, 75, 70 and 65 degrees
+    // without and with each shell factor (8 x 4 and 4 x 4 cells).
+    assert_eq!(line.matches(", ").count(), 12, "{line}");
+    assert_eq!(line.matches("+shell ").count(), 8, "{line}");
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&fit).unwrap()).unwrap();
     let got = json["brdf"]["reduction"]["max_elevation_deg"]
@@ -916,7 +916,7 @@ fn the_render_check_of_a_perceptual_fit_chooses_its_evaluation_cut() {
     // The file records every evaluation measured and the choice.
     assert_eq!(
         json["evaluation_cut"]["tried"].as_array().unwrap().len(),
-        10
+        13
     );
     let chosen = json["evaluation_cut"]["chosen"].as_f64().unwrap_or(90.0);
     assert!((chosen - got).abs() < 1e-12, "{chosen} against {got}");

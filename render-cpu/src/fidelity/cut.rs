@@ -9,8 +9,10 @@ use serde::Serialize;
 use std::sync::Arc;
 
 /// The elevation cuts (degrees) [`choose_evaluation_cut`] tries besides
-/// none.
-pub const EVALUATION_CUTS: [f64; 3] = [80.0, 75.0, 70.0];
+/// none. 65 degrees wins on two clear coats' slices (cc_iris_purple_gem
+/// and cc_green_malachite, docs/results/fidelity-2026-12-05-replay.md);
+/// each cut costs three more validations per fit.
+pub const EVALUATION_CUTS: [f64; 4] = [80.0, 75.0, 70.0, 65.0];
 
 /// What [`choose_evaluation_cut`] chose.
 #[derive(Debug, Clone)]
