@@ -91,7 +91,7 @@ pub struct FitArgs {
     target_de: Option<f64>,
     /// Seconds `--target-de` may spend on fits and renders before it
     /// returns the best fit so far.
-    #[arg(long, default_value_t = 120.0, value_parser = crate::args::positive)]
+    #[arg(long, default_value_t = render_cpu::fidelity::TARGET_TIME_BUDGET_S, value_parser = crate::args::positive)]
     time_budget: f64,
     /// With `--target-de`: the most bytes (f32, a shell factor included)
     /// the fit returned may have. Fits over it are tried and listed, never
@@ -199,8 +199,11 @@ pub fn fit_to_json(args: &FitArgs) -> Result<serde_json::Value> {
     let mut fit_settings = FitSettings::default()
         .with_coeff_range(
             2,
-            args.max_coeffs
-                .unwrap_or(if args.target_de.is_some() { 120 } else { 60 }),
+            args.max_coeffs.unwrap_or(if args.target_de.is_some() {
+                render_cpu::fidelity::TARGET_MAX_COEFFS
+            } else {
+                60
+            }),
         )?
         .with_backend(args.backend)?
         .with_pole_control(args.poles)

@@ -2,6 +2,7 @@
 
 mod common;
 
+use common::blinn_phong_merl;
 use std::path::PathBuf;
 use std::process::Command;
 
@@ -299,21 +300,6 @@ fn brdf_demo_fits_renders_and_exports() {
 }
 
 /// A MERL file written from an analytic material, in `dir`.
-fn blinn_phong_merl(dir: &std::path::Path) -> PathBuf {
-    let merl = dir.join("m.binary");
-    brdf::MerlBrdf::tabulate(
-        &brdf::BlinnPhong {
-            kd: [0.2, 0.3, 0.4],
-            ks: [0.3; 3],
-            exponent: 20.0,
-        },
-        brdf::TabulateOptions::default(),
-    )
-    .write(&merl)
-    .unwrap();
-    merl
-}
-
 #[test]
 fn fit_eval_export_and_plot_a_merl_file() {
     // A MERL file written from an analytic material stands in for a download.

@@ -354,3 +354,86 @@ fn render_on_the_gpu_matches_the_cpu_or_names_the_missing_feature() {
     let mean = v["covered_mean_de2000"].as_f64().unwrap();
     assert!(mean < 0.05, "{cmp}");
 }
+
+/// A scene's `target_de` material and `ratfit fit --target-de` with the
+/// same target, budgets and table return the same fit: both search on the
+/// same validation renders with the same settings.
+#[test]
+fn a_scene_target_fit_is_the_fit_ratfit_fit_returns() {
+    let dir = scratch("target-same");
+    let merl = common::blinn_phong_merl(&dir);
+    let fit = dir.join("fit.json");
+    run_ok(
+        ratfit()
+            .arg("fit")
+            .arg(&merl)
+            .args(["--format", "merl", "--target-de", "3", "--max-bytes", "512"])
+            .args(["--max-coeffs", "30", "-o"])
+            .arg(&fit),
+    );
+    let scene = dir.join("target.toml");
+    std::fs::write(
+        &scene,
+        format!(
+            r#"
+[camera]
+from = [0.0, 0.0, 3.0]
+to = [0.0, 0.0, 0.0]
+width = 8
+height = 8
+
+[integrator]
+kind = "direct"
+spp = 1
+
+[materials.table]
+kind = "measured"
+format = "merl"
+path = "{}"
+
+[materials.fit]
+kind = "fitted"
+source = "table"
+target_de = 3.0
+max_bytes = 512
+max_coeffs = 30
+
+[[objects]]
+shape = "sphere"
+center = [0.0, 0.0, 0.0]
+radius = 1.0
+material = "fit"
+
+[[lights]]
+kind = "directional"
+direction = [0.5, 0.6, 0.8]
+irradiance = [5.0, 5.0, 5.0]
+"#,
+            merl.display()
+        ),
+    )
+    .unwrap();
+    let cache = dir.join("cache");
+    run_ok(
+        ratfit()
+            .arg("render")
+            .arg(&scene)
+            .arg("--cache")
+            .arg(&cache)
+            .arg("-o")
+            .arg(dir.join("target.png")),
+    );
+    let cached: Vec<PathBuf> = std::fs::read_dir(&cache)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.file_name().unwrap().to_string_lossy().starts_with("fit-"))
+        .collect();
+    assert_eq!(cached.len(), 1, "{cached:?}");
+    let read = |p: &Path| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap()
+    };
+    let (from_scene, from_fit) = (read(&cached[0]), read(&fit));
+    assert!(from_fit["target"]["bytes"].as_u64().unwrap() <= 512);
+    assert_eq!(from_scene["payload"], from_fit["brdf"]);
+    std::fs::remove_dir_all(dir).ok();
+}

@@ -118,7 +118,7 @@ impl Default for BrdfOptions {
             search: None,
             max_widenings: 6,
             target_de: None,
-            time_budget: 120.0,
+            time_budget: render_cpu::fidelity::TARGET_TIME_BUDGET_S,
             max_bytes: None,
             degree_weights: Vec::new(),
             perceptual: false,
@@ -295,7 +295,11 @@ impl BrdfOptions {
             .poles
             .parse::<PoleControl>()
             .map_err(|e| fit_error(py, e))?;
-        let max = self.max_coeffs.unwrap_or(if target { 120 } else { 60 });
+        let max = self.max_coeffs.unwrap_or(if target {
+            render_cpu::fidelity::TARGET_MAX_COEFFS
+        } else {
+            60
+        });
         let mut s = with(FitSettings::default().with_coeff_range(2, max))?;
         s = with(s.with_backend(backend))?
             .with_pole_control(poles)

@@ -301,9 +301,10 @@ pub enum MaterialDescription {
         /// 2 or 3 (default 2).
         #[serde(default = "default_dims")]
         dims: usize,
-        /// Largest coefficient budget per channel (default 60).
-        #[serde(default = "default_max_coeffs")]
-        max_coeffs: usize,
+        /// Largest coefficient budget per channel (default 60; 120 with
+        /// `target_de`, as `ratfit fit --target-de`).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        max_coeffs: Option<usize>,
         /// Instead of `rel_tol`: the smallest 3-D perceptual fit
         /// (luminance-chroma, 16^3 grid) whose validation renders reach
         /// this mean CIEDE2000 (see `render_cpu::fidelity::fit_to_target`;
@@ -332,9 +333,6 @@ fn default_rel_tol() -> f64 {
 }
 fn default_dims() -> usize {
     2
-}
-fn default_max_coeffs() -> usize {
-    60
 }
 
 /// An object: a shape and the material it uses.

@@ -87,7 +87,7 @@ pub struct FidelityArgs {
     #[arg(long, default_value_t = 1024, value_parser = crate::args::max_bytes)]
     max_bytes: usize,
     /// Seconds the `--target-de` fit may spend on fits and renders.
-    #[arg(long, default_value_t = 120.0, value_parser = crate::args::positive)]
+    #[arg(long, default_value_t = render_cpu::fidelity::TARGET_TIME_BUDGET_S, value_parser = crate::args::positive)]
     time_budget: f64,
     /// Largest coefficient budget per channel.
     #[arg(long, default_value_t = 120)]

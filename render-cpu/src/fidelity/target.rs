@@ -41,6 +41,16 @@ impl Search {
 /// fewer bytes than 24^3 (docs/results/fidelity-2026-12-04-target-grid.md).
 pub const TARGET_GRID_3D: [usize; 3] = [16, 16, 16];
 
+/// Largest coefficient budget per function of a target fit by default
+/// (`ratfit fit --target-de`, a scene's `target_de`, the Python package):
+/// twice the budget of a plain fit, since the tolerance is the search's.
+pub const TARGET_MAX_COEFFS: usize = 120;
+
+/// Seconds a target fit may spend on fits and renders by default
+/// (`ratfit fit --time-budget`, a scene's `target_de`, the Python package's
+/// `time_budget`), checked between fits.
+pub const TARGET_TIME_BUDGET_S: f64 = 120.0;
+
 /// Bins (`theta_h`, `theta_d`) of the 2-D slice a target fit samples.
 pub const TARGET_SLICE: [usize; 2] = [90, 90];
 

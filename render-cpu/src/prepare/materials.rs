@@ -139,6 +139,11 @@ impl MaterialBuilder<'_> {
         else {
             unreachable!("build_fitted is called on fitted materials");
         };
+        let max_coeffs = max_coeffs.unwrap_or(if target_de.is_some() {
+            crate::fidelity::TARGET_MAX_COEFFS
+        } else {
+            60
+        });
         let start = Instant::now();
         let what = format!("material {name}");
         if max_bytes.is_some() && target_de.is_none() {
@@ -150,12 +155,25 @@ impl MaterialBuilder<'_> {
             ));
         }
         // Fits without a lobe, a cut or a byte budget keep the keys they had
-        // before those keys existed.
+        // before those keys existed; a target fit names its validation, so
+        // that one chosen on other renders is not read back.
         let settings_text = format!(
-            "fitted source={source} rel_tol={rel_tol} dims={dims} max_coeffs={max_coeffs} target_de={target_de:?}{}{}{}",
+            "fitted source={source} rel_tol={rel_tol} dims={dims} max_coeffs={max_coeffs} target_de={target_de:?}{}{}{}{}",
             if lobe { " lobe=ggx" } else { "" },
             max_elevation.map_or(String::new(), |e| format!(" max_elevation={e}")),
-            max_bytes.map_or(String::new(), |b| format!(" max_bytes={b}"))
+            max_bytes.map_or(String::new(), |b| format!(" max_bytes={b}")),
+            if target_de.is_some() {
+                let v = crate::fidelity::ValidationSettings::default();
+                format!(
+                    " validation={}px,{}spp,seed{},{}s",
+                    v.size,
+                    v.sky_spp,
+                    v.seed,
+                    crate::fidelity::TARGET_TIME_BUDGET_S
+                )
+            } else {
+                String::new()
+            }
         );
         let fitted = match self
             .cache
@@ -178,8 +196,10 @@ impl MaterialBuilder<'_> {
                     .with_lobe(lobe.then(|| brdf::Lobe::fit(src.as_ref())));
                 let (fitted, summary) = match target_de {
                     Some(target) => {
-                        let budget =
-                            crate::fidelity::TargetBudget::seconds(60.0).with_bytes(max_bytes);
+                        let budget = crate::fidelity::TargetBudget::seconds(
+                            crate::fidelity::TARGET_TIME_BUDGET_S,
+                        )
+                        .with_bytes(max_bytes);
                         fit_for_target(&src, target, settings, max_elevation, budget)?
                     }
                     None => {
@@ -327,8 +347,10 @@ impl MaterialBuilder<'_> {
 /// A scene's `target_de` fit: luminance-chroma over the whole hemisphere
 /// (or within `max_elevation`), the 2-D slice first and the grid of
 /// [`crate::fidelity::TARGET_GRID_3D`] when the slice cannot reach the
-/// target, validated at 64 x 64 pixels within `budget` (60 s); returns
-/// the fit and what it reached.
+/// target, validated on the renders `ratfit fit --target-de` uses
+/// ([`crate::fidelity::ValidationSettings::default`]) within `budget`
+/// ([`crate::fidelity::TARGET_TIME_BUDGET_S`]), so that both return the
+/// same fit; returns the fit and what it reached.
 fn fit_for_target(
     src: &Arc<dyn Brdf>,
     target: f64,
@@ -348,17 +370,12 @@ fn fit_for_target(
         }
         None => base,
     };
-    let validation = crate::fidelity::ValidationSettings {
-        size: 64,
-        sky_spp: 32,
-        ..Default::default()
-    };
     let (fitted, report) = crate::fidelity::fit_to_target(
         src.clone(),
         target,
         &settings,
         crate::fidelity::TargetReduction::Auto,
-        validation,
+        crate::fidelity::ValidationSettings::default(),
         budget,
     )?;
     let summary = format!(
