@@ -154,26 +154,9 @@ impl MaterialBuilder<'_> {
                 ),
             ));
         }
-        // Fits without a lobe, a cut or a byte budget keep the keys they had
-        // before those keys existed; a target fit names its validation, so
-        // that one chosen on other renders is not read back.
         let settings_text = format!(
-            "fitted source={source} rel_tol={rel_tol} dims={dims} max_coeffs={max_coeffs} target_de={target_de:?}{}{}{}{}",
-            if lobe { " lobe=ggx" } else { "" },
-            max_elevation.map_or(String::new(), |e| format!(" max_elevation={e}")),
-            max_bytes.map_or(String::new(), |b| format!(" max_bytes={b}")),
-            if target_de.is_some() {
-                let v = crate::fidelity::ValidationSettings::default();
-                format!(
-                    " validation={}px,{}spp,seed{},{}s",
-                    v.size,
-                    v.sky_spp,
-                    v.seed,
-                    crate::fidelity::TARGET_TIME_BUDGET_S
-                )
-            } else {
-                String::new()
-            }
+            "fitted source={source} rel_tol={rel_tol} dims={dims} max_coeffs={max_coeffs} target_de={target_de:?}{}",
+            key_additions(lobe, max_elevation, max_bytes, target_de.is_some())
         );
         let fitted = match self
             .cache
@@ -342,6 +325,39 @@ impl MaterialBuilder<'_> {
         }
         Ok(built)
     }
+}
+
+/// What a fitted material's cache key adds to its basic settings. Fits
+/// without a lobe, a cut or a byte budget keep the keys they had before
+/// those keys existed; a target fit names its validation renders and time
+/// budget, so that a fit chosen on other renders is not read back.
+fn key_additions(
+    lobe: bool,
+    max_elevation: Option<f64>,
+    max_bytes: Option<usize>,
+    target: bool,
+) -> String {
+    let mut text = String::new();
+    if lobe {
+        text += " lobe=ggx";
+    }
+    if let Some(e) = max_elevation {
+        text += &format!(" max_elevation={e}");
+    }
+    if let Some(b) = max_bytes {
+        text += &format!(" max_bytes={b}");
+    }
+    if target {
+        let v = crate::fidelity::ValidationSettings::default();
+        text += &format!(
+            " validation={}px,{}spp,seed{},{}s",
+            v.size,
+            v.sky_spp,
+            v.seed,
+            crate::fidelity::TARGET_TIME_BUDGET_S
+        );
+    }
+    text
 }
 
 /// A scene's `target_de` fit: luminance-chroma over the whole hemisphere
