@@ -85,8 +85,10 @@ pub struct FitArgs {
     /// perceptual fit (whole hemisphere) whose validation renders (a sphere
     /// under three directional lights and under a sky) reach this mean
     /// CIEDE2000 against the table; the 2-D slice first, then 3-D (grid
-    /// from `--resolution`, else 16^3) unless `--dims` fixes one. MERL and
-    /// RGL files only.
+    /// from `--resolution`, else 16^3) unless `--dims` fixes one;
+    /// luminance-chroma, and RGB on the first reduction too when the
+    /// chroma ratios limit it, unless `--colour` fixes one. MERL and RGL
+    /// files only.
     #[arg(long, conflicts_with_all = ["perceptual", "spread"], value_parser = crate::args::positive)]
     target_de: Option<f64>,
     /// Seconds `--target-de` may spend on fits and renders before it
@@ -378,18 +380,28 @@ fn run_fit_target(
         .with_colour_mode(colour)
         .with_lobe(args.lobe.then(|| brdf::Lobe::fit(material.as_ref())))
         .with_cap_rounds(args.cap_rounds)?;
-    if let Some(bar) = crate::progress::channel_bar(colour.names()) {
+    // The functions are numbered when the search may change colour mode.
+    let labels = match args.colour {
+        Some(c) => c.names(),
+        None => ['1', '2', '3'],
+    };
+    if let Some(bar) = crate::progress::channel_bar(labels) {
         settings = settings.with_channel_progress(bar);
     }
     let mode = match args.dims {
         None => render_cpu::fidelity::TargetReduction::Auto,
         Some(_) => render_cpu::fidelity::TargetReduction::Fixed,
     };
+    let colour_choice = match args.colour {
+        None => render_cpu::fidelity::TargetColour::Auto,
+        Some(_) => render_cpu::fidelity::TargetColour::Fixed,
+    };
     let fitted = render_cpu::fidelity::fit_to_target(
         material.clone(),
         target,
         &settings,
         mode,
+        colour_choice,
         render_cpu::fidelity::ValidationSettings::default(),
         render_cpu::fidelity::TargetBudget::seconds(args.time_budget).with_bytes(args.max_bytes),
     );

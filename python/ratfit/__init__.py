@@ -157,7 +157,9 @@ def fit_brdf(path: str, format: Optional[str] = None, **options: Any) -> FittedM
             within it and evaluate beyond it at the cut),
             ``cap_rounds`` (refits of the dense check that
             keeps every fit under 1.5x the channel's peak; default 2),
-            ``colour`` ("rgb" or "luminance-chroma"),
+            ``colour`` ("rgb" or "luminance-chroma"; with ``target_de``
+            and no ``colour``, luminance-chroma and, when the chroma
+            ratios limit the first reduction, RGB there too),
             ``lobe`` (an analytic GGX lobe times the rational functions),
             ``max_coeffs``, ``search`` ("staircase"; "exhaustive" visits every
             split, for the same fits on real materials in several times the

@@ -10,7 +10,9 @@ use numpy::{AllowTypeChange, PyArray2, PyArrayLikeDyn};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict, PyTuple};
-use render_cpu::fidelity::{fit_to_target, TargetBudget, TargetReduction, ValidationSettings};
+use render_cpu::fidelity::{
+    fit_to_target, TargetBudget, TargetColour, TargetReduction, ValidationSettings,
+};
 use std::path::Path;
 use std::sync::Arc;
 
@@ -152,11 +154,16 @@ pub fn fit_brdf(
                 None => TargetReduction::Auto,
                 Some(_) => TargetReduction::Fixed,
             };
+            let colour = match o.colour {
+                None => TargetColour::Auto,
+                Some(_) => TargetColour::Fixed,
+            };
             let (fitted, report) = fit_to_target(
                 table.clone(),
                 target,
                 &settings,
                 mode,
+                colour,
                 ValidationSettings::default(),
                 TargetBudget::seconds(o.time_budget).with_bytes(o.max_bytes),
             )

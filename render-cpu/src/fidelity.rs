@@ -39,7 +39,7 @@ pub use cut::{
 };
 pub use split::{colour_split, ColourSplit};
 pub use target::{
-    fit_to_target, on_target_grid, target_settings, TargetReduction, TARGET_GRID_3D,
+    fit_to_target, on_target_grid, target_settings, TargetColour, TargetReduction, TARGET_GRID_3D,
     TARGET_MAX_COEFFS, TARGET_SLICE, TARGET_TIME_BUDGET_S,
 };
 pub use target_report::{GridFloor, TargetAttempt, TargetBudget, TargetReport};

@@ -2,6 +2,7 @@
 //! prepares and renders on a glossy measured material.
 
 use ratfit_tests::data_dir;
+use render_cpu::fidelity::TargetColour;
 use render_cpu::{prepare, render, RenderOptions, SceneDescription};
 use std::path::Path;
 
@@ -114,7 +115,7 @@ fn a_byte_budget_without_a_target_is_refused() {
     );
 }
 
-/// The report of a target fit of a glossy Blinn-Phong material on a
+/// The report of an RGB target fit of a glossy Blinn-Phong material on a
 /// `bins` 3-D grid within `max_coeffs` coefficients per function and
 /// `max_bytes`, validated on tiny renders.
 fn glossy_target_fit(
@@ -122,6 +123,17 @@ fn glossy_target_fit(
     bins: [usize; 3],
     max_coeffs: usize,
     max_bytes: Option<usize>,
+) -> Result<render_cpu::fidelity::TargetReport, render_cpu::RenderError> {
+    glossy_target_fit_in(target, bins, max_coeffs, max_bytes, TargetColour::Fixed)
+}
+
+/// [`glossy_target_fit`] with the colour modes `colour` allows.
+fn glossy_target_fit_in(
+    target: f64,
+    bins: [usize; 3],
+    max_coeffs: usize,
+    max_bytes: Option<usize>,
+    colour: TargetColour,
 ) -> Result<render_cpu::fidelity::TargetReport, render_cpu::RenderError> {
     use brdf::{BlinnPhong, BrdfFitSettings, PerceptualBounds, Reduction, ReductionKind};
     use render_cpu::fidelity::{fit_to_target, TargetBudget, TargetReduction, ValidationSettings};
@@ -156,6 +168,7 @@ fn glossy_target_fit(
         target,
         &settings,
         TargetReduction::Fixed,
+        colour,
         validation,
         TargetBudget::seconds(60.0).with_bytes(max_bytes),
     )
@@ -255,4 +268,42 @@ fn a_target_fit_stays_within_its_byte_budget() {
     assert!(err.to_string().contains("within 8 bytes"), "{err}");
     let err = glossy_target_fit(1e-3, [6, 6, 4], 30, Some(4)).unwrap_err();
     assert!(err.to_string().contains("max_bytes"), "{err}");
+}
+
+/// With the colour mode left to it, a missed target is also searched in
+/// the other mode (luminance-chroma after RGB), every attempt names its
+/// mode, and the fit returned is the lowest worse-scene error of all;
+/// a target the first mode reaches tries no other.
+#[test]
+fn a_missed_target_is_searched_in_both_colour_modes() {
+    use brdf::ColourMode;
+    let both = glossy_target_fit_in(1e-3, [6, 6, 4], 30, None, TargetColour::Auto).unwrap();
+    assert!(!both.reached);
+    let modes = |r: &render_cpu::fidelity::TargetReport, m: ColourMode| {
+        r.tried.iter().filter(|a| a.colour == m).count()
+    };
+    assert!(modes(&both, ColourMode::Rgb) > 0, "{both}");
+    assert!(modes(&both, ColourMode::LuminanceChroma) > 0, "{both}");
+    let lowest = both
+        .tried
+        .iter()
+        .filter(|a| !a.over_budget)
+        .filter_map(|a| a.result.map(|(_, worst)| (worst, a.colour)))
+        .min_by(|a, b| a.0.total_cmp(&b.0))
+        .unwrap();
+    let chosen = both.scenes.iter().map(|s| s.mean_de).fold(0.0, f64::max);
+    assert!((chosen - lowest.0).abs() < 1e-9, "{both}");
+    assert_eq!(both.colour, lowest.1, "{both}");
+    let text = both.to_string();
+    assert!(text.contains("in luminance-chroma"), "{text}");
+    assert!(text.contains("-D rgb +-"), "{text}");
+    assert!(text.contains("-D luminance-chroma +-"), "{text}");
+    // The same search with the mode fixed tries RGB alone.
+    let fixed = glossy_target_report(1e-3, [6, 6, 4], 30);
+    assert_eq!(modes(&fixed, ColourMode::LuminanceChroma), 0, "{fixed}");
+    // A target RGB reaches is not searched further.
+    let reached = glossy_target_fit_in(1e3, [6, 6, 4], 30, None, TargetColour::Auto).unwrap();
+    assert!(reached.reached, "{reached}");
+    assert_eq!(modes(&reached, ColourMode::LuminanceChroma), 0, "{reached}");
+    assert_eq!(reached.colour, ColourMode::Rgb);
 }

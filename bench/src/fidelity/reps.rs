@@ -131,7 +131,8 @@ pub(super) fn rational_reps(table: &Arc<dyn Brdf>, plan: &Plan) -> Vec<Attempt> 
 
 /// The fit `ratfit fit FILE --target-de D [--max-bytes B]` returns (its
 /// settings: luminance-chroma, perceptual intervals over the whole
-/// hemisphere, the slice first and then the 16^3 grid, chosen on the
+/// hemisphere, the slice first (also in RGB when the chroma ratios limit
+/// it) and then the 16^3 grid, chosen on the
 /// default validation renders, 96 x 96 with 256 sky samples), described by
 /// its report.
 fn fit_target(
@@ -140,7 +141,8 @@ fn fit_target(
     max_coeffs: usize,
 ) -> Result<(brdf::FittedBrdf, String)> {
     use render_cpu::fidelity::{
-        fit_to_target, target_settings, TargetBudget, TargetReduction, ValidationSettings,
+        fit_to_target, target_settings, TargetBudget, TargetColour, TargetReduction,
+        ValidationSettings,
     };
     let engine = rational_core::FitSettings::default()
         .with_coeff_range(2, max_coeffs)?
@@ -152,13 +154,15 @@ fn fit_target(
         target.de,
         &settings,
         TargetReduction::Auto,
+        TargetColour::Auto,
         ValidationSettings::default(),
         budget,
     )?;
     let widened = report.widened;
     let note = format!(
-        "{}-D +-{}%{}{}{}; {} on its own validation renders ({:.3}); {} fits tried",
+        "{}-D {} +-{}%{}{}{}; {} on its own validation renders ({:.3}); {} fits tried",
         report.dims,
+        report.colour,
         brdf::scale_text(report.rel_tol * 100.0),
         if widened > 1.0 {
             format!(" widened x{}", brdf::scale_text(widened))

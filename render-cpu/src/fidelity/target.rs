@@ -20,6 +20,49 @@ pub enum TargetReduction {
     Fixed,
 }
 
+/// Which colour modes [`fit_to_target`] may use.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+#[non_exhaustive]
+pub enum TargetColour {
+    /// The base settings' mode; then, while the target is unreached and
+    /// the first reduction (the slice with [`TargetReduction::Auto`]) still
+    /// holds the best fit, the other mode on that reduction: RGB after
+    /// luminance-chroma when a chroma ratio, never the luminance, limited
+    /// its fits (RGB channels need no ratio, whose intervals a coloured
+    /// highlight widens most), luminance-chroma after RGB always.
+    Auto,
+    /// The base settings' mode only.
+    Fixed,
+}
+
+/// The share of the time budget the search in the other colour mode
+/// ([`TargetColour::Auto`]) may start fits within, from its own start.
+const OTHER_COLOUR_SHARE: f64 = 0.6;
+
+/// The colour mode [`TargetColour::Auto`] tries after `mode`.
+fn other_colour(mode: brdf::ColourMode) -> brdf::ColourMode {
+    match mode {
+        brdf::ColourMode::Rgb => brdf::ColourMode::LuminanceChroma,
+        _ => brdf::ColourMode::Rgb,
+    }
+}
+
+/// Whether the other colour mode is worth a search after `tried` in
+/// `mode`: after RGB always; after luminance-chroma when a chroma ratio,
+/// never the luminance, limited a fit (widened most or with no fit). RGB
+/// channels each carry the luminance's shape, so where the luminance
+/// itself is short of coefficients they are too (on the 11 RGL files, RGB
+/// slices lost or had no fit wherever the luminance limited).
+fn other_colour_may_help(mode: brdf::ColourMode, tried: &[TargetAttempt]) -> bool {
+    if mode != brdf::ColourMode::LuminanceChroma {
+        return true;
+    }
+    let limiting: Vec<char> = tried.iter().filter_map(|a| a.limiting).collect();
+    let luminance = mode.names()[0];
+    !limiting.is_empty() && !limiting.contains(&luminance)
+}
+
 /// The best fit of one reduction and every attempt.
 struct Search {
     best: Best,
@@ -192,31 +235,36 @@ struct Measured {
 
 /// The fit of `settings` at perceptual half-width `t`, measured and given
 /// its evaluation cut ([`choose_evaluation_cut`], within the byte budget
-/// when it can be); `None` when no fit is within the coefficient budget.
+/// when it can be); `Err(name)` names the first function (in the colour
+/// mode's order) with no fit within the coefficient budget.
 fn fit_at(
     goal: &Goal,
     settings: &brdf::BrdfFitSettings,
     t: f64,
-) -> Result<Option<Measured>, RenderError> {
+) -> Result<Result<Measured, char>, RenderError> {
+    let started = Instant::now();
     let (validator, table, budget) = (goal.validator, goal.table, goal.budget);
     let design = settings.design().copied().unwrap_or_default();
     let s = settings.clone().with_design(brdf::PerceptualBounds {
         rel_tol: t,
         ..design
     });
-    let (fitted, widened) = match brdf::fit_brdf(table.as_ref(), &s) {
+    let (fitted, widened, limiting) = match brdf::fit_brdf(table.as_ref(), &s) {
         Ok((f, r)) => {
-            let w = r
-                .channels
-                .iter()
-                .map(|c| c.interval_scale)
-                .fold(1.0, f64::max);
-            (f, w)
+            let scales: Vec<f64> = r.channels.iter().map(|c| c.interval_scale).collect();
+            let w = scales.iter().copied().fold(1.0, f64::max);
+            // The first function widened most (the luminance between ties).
+            let first_widest =
+                (0..scales.len()).max_by(|&a, &b| scales[a].total_cmp(&scales[b]).then(b.cmp(&a)));
+            let limiting = first_widest
+                .filter(|_| w > 1.0)
+                .map(|c| settings.colour_mode().names()[c]);
+            (f, w, limiting)
         }
         Err(brdf::BrdfError::Fit {
+            channel,
             source: rational_core::FitError::NoFeasibleFit { .. },
-            ..
-        }) => return Ok(None),
+        }) => return Ok(Err(channel)),
         Err(e) => {
             return Err(RenderError::Material {
                 name: table.name(),
@@ -236,15 +284,18 @@ fn fit_at(
     let bytes = choice.fitted.byte_size_f32();
     let attempt = TargetAttempt {
         dims: settings.reduction().dims(),
+        colour: settings.colour_mode(),
         rel_tol: t,
+        seconds: started.elapsed().as_secs_f64(),
         result: Some((bytes, choice.errors.worst_mean())),
         widened,
+        limiting,
         cut: choice.cut,
         shell: choice.shell,
         over_budget: budget.passed_by(bytes),
         fitted_within: fitted_within(settings),
     };
-    Ok(Some(Measured {
+    Ok(Ok(Measured {
         fitted: choice.fitted,
         errors: choice.errors,
         attempt,
@@ -258,7 +309,8 @@ fn fit_at(
 /// tighter tolerance improves the error by less than 10% (the reduction's
 /// own error dominates). When even the loosest has no fit, looser ones
 /// follow; when its fit passes the byte budget, looser ones by sqrt 2
-/// follow until one fits within it. A channel's intervals are
+/// follow until one fits within it. Both go on past the deadline while
+/// the search has no fit within the budgets. A channel's intervals are
 /// widened by [`WIDEN_STEP`] at most [`MAX_WIDENINGS`] times (reported):
 /// widened further, a perceptual design's floors and caps stop meaning
 /// anything.
@@ -283,37 +335,47 @@ fn search_tolerances(
     while k < queue.len() {
         let t = queue[k];
         k += 1;
-        let Some(m) = fit_at(goal, &settings, t)? else {
-            search.tried.push(TargetAttempt {
-                dims: settings.reduction().dims(),
-                rel_tol: t,
-                result: None,
-                widened: 1.0,
-                cut: None,
-                shell: false,
-                over_budget: false,
-                fitted_within: fitted_within(&settings),
-            });
-            if search.best.is_none() && !loosened {
-                // Even the loosest is infeasible: loosen instead.
-                queue = LOOSER.to_vec();
-                k = 0;
-                loosened = true;
-                continue;
+        let started = Instant::now();
+        let m = match fit_at(goal, &settings, t)? {
+            Ok(m) => m,
+            Err(function) => {
+                search.tried.push(TargetAttempt {
+                    dims: settings.reduction().dims(),
+                    colour: settings.colour_mode(),
+                    rel_tol: t,
+                    seconds: started.elapsed().as_secs_f64(),
+                    result: None,
+                    widened: 1.0,
+                    limiting: Some(function),
+                    cut: None,
+                    shell: false,
+                    over_budget: false,
+                    fitted_within: fitted_within(&settings),
+                });
+                if search.best.is_none() && !loosened {
+                    // Even the loosest is infeasible: loosen instead.
+                    queue = LOOSER.to_vec();
+                    k = 0;
+                    loosened = true;
+                    continue;
+                }
+                if search.best.is_none() && k < queue.len() {
+                    continue;
+                }
+                break;
             }
-            if search.best.is_none() && k < queue.len() {
-                continue;
-            }
-            break;
         };
         let over_budget = m.attempt.over_budget;
         let worst = m.errors.worst_mean();
         search.tried.push(m.attempt.clone());
         if over_budget {
-            if search.best.is_some() || past_deadline() {
+            if search.best.is_some() {
                 // Tighter intervals than a fit within the budget only grow.
                 break;
             }
+            // Nothing within the byte budget yet: looser tolerances follow
+            // even past the deadline, as they do when nothing is feasible
+            // (a search cut here returns nothing for the time it spent).
             if !loosened_for_bytes {
                 queue = looser_for_bytes(t);
                 k = 0;
@@ -350,19 +412,29 @@ type Best = Option<Measured>;
 /// grid, and with a byte budget, the 3-D grid fitted within
 /// [`TARGET_CUT_DEGREES`] (from the tightest tolerance the whole-hemisphere
 /// fits passed the budget at) and, when nothing is within the budget yet,
-/// the 3-D grid with the budget split evenly between the functions. Returns
+/// the 3-D grid with the budget split evenly between the functions; with
+/// [`TargetColour::Auto`], the first reduction in the other colour mode
+/// comes before that last one (see [`TargetColour::Auto`]). Returns
 /// why the fit was chosen, the fit with the lowest worse-scene error (the
 /// earlier search between equal errors), and every attempt.
 fn run_searches(
     goal: &Goal,
     base: &brdf::BrdfFitSettings,
     reduction: TargetReduction,
+    colour: TargetColour,
 ) -> Result<(String, Best, Vec<TargetAttempt>), RenderError> {
     let budget_s = goal.budget.seconds;
     let dims = base.reduction().dims();
     let mut searches: Vec<(String, Search)> = Vec::new();
     let reached =
         |searches: &[(String, Search)]| searches.iter().any(|(_, s)| s.worst() <= goal.target_de);
+    // Searches are named with their colour mode once two modes are tried.
+    let in_mode = |what: &str, mode: brdf::ColourMode| match colour {
+        TargetColour::Auto => format!("{what} in {mode}"),
+        TargetColour::Fixed => what.to_string(),
+    };
+    // The first reduction searched: the other colour mode is tried on it.
+    let mut first = (base.clone(), 0);
     if reduction == TargetReduction::Auto {
         let r = on_target_grid(
             base.reduction()
@@ -371,24 +443,25 @@ fn run_searches(
         );
         let settings = base.clone().with_reduction(r);
         let s = search_tolerances(goal, &settings, &TOLERANCES[..3], 0.4 * budget_s, true)?;
-        searches.push(("the 2-D slice".into(), s));
+        searches.push((in_mode("the 2-D slice", base.colour_mode()), s));
+        first.0 = settings;
     }
+    let mut over_budget_at: Vec<f64> = Vec::new();
     if !reached(&searches) {
         let s = search_tolerances(goal, base, &TOLERANCES, budget_s, false)?;
-        searches.push((format!("the {dims}-D fits"), s));
+        over_budget_at = (s.tried.iter())
+            .filter(|a| a.over_budget)
+            .map(|a| a.rel_tol)
+            .collect();
+        searches.push((
+            in_mode(&format!("the {dims}-D fits"), base.colour_mode()),
+            s,
+        ));
     }
     let whole_3d = base.reduction().kind == brdf::ReductionKind::Full3d
         && base.reduction().max_elevation_deg >= 90.0;
     if let (Some(_), true, false) = (goal.budget.bytes, whole_3d, reached(&searches)) {
-        let over: Vec<f64> = searches
-            .last()
-            .map(|(_, s)| &s.tried)
-            .into_iter()
-            .flatten()
-            .filter(|a| a.over_budget)
-            .map(|a| a.rel_tol)
-            .collect();
-        let from = over.iter().copied().fold(TOLERANCES[0], f64::min);
+        let from = over_budget_at.iter().copied().fold(TOLERANCES[0], f64::min);
         let tolerances: Vec<f64> = TOLERANCES
             .iter()
             .copied()
@@ -404,9 +477,31 @@ fn run_searches(
             .with_reduction(base.reduction().with_max_elevation(TARGET_CUT_DEGREES));
         let s = search_tolerances(goal, &settings, &tolerances, budget_s, false)?;
         searches.push((
-            format!("the {dims}-D fits within {TARGET_CUT_DEGREES} degrees"),
+            in_mode(
+                &format!("the {dims}-D fits within {TARGET_CUT_DEGREES} degrees"),
+                base.colour_mode(),
+            ),
             s,
         ));
+    }
+    if colour == TargetColour::Auto && !reached(&searches) {
+        // Only where the first reduction is still the best, and with a
+        // time allowance of its own: it runs after the budget's deadline
+        // on the slowest files.
+        let best = (0..searches.len())
+            .min_by(|&a, &b| searches[a].1.worst().total_cmp(&searches[b].1.worst()));
+        let (settings, k) = first;
+        if best == Some(k) && other_colour_may_help(base.colour_mode(), &searches[k].1.tried) {
+            let mode = other_colour(base.colour_mode());
+            let deadline = goal.start.elapsed().as_secs_f64() + OTHER_COLOUR_SHARE * budget_s;
+            let settings = settings.with_colour_mode(mode);
+            let s = search_tolerances(goal, &settings, &TOLERANCES[..3], deadline, true)?;
+            let what = match reduction {
+                TargetReduction::Auto => "the 2-D slice".to_string(),
+                TargetReduction::Fixed => format!("the {dims}-D fits"),
+            };
+            searches.push((in_mode(&what, mode), s));
+        }
     }
     let found = searches.iter().any(|(_, s)| s.best.is_some());
     if let (Some(bytes), false) = (goal.budget.bytes, found) {
@@ -460,7 +555,8 @@ fn run_searches(
 /// `+-16%` down to `+-2%` are tried in turn (looser intervals give fewer
 /// coefficients, usually), stopping at the first that reaches the target
 /// or when `budget.seconds` is spent (checked between fits, so the last fit
-/// may run past it); when none does, the fit with the lowest error is
+/// may run past it, and a search with no fit within the coefficient and
+/// byte budgets yet goes on loosening past it); when none does, the fit with the lowest error is
 /// returned and the report says so. With `budget.bytes`, only fits within
 /// it are returned: no function is given more coefficients than the budget
 /// holds, a shell factor that would pass it is left out, and a tolerance
@@ -474,7 +570,12 @@ fn run_searches(
 /// tolerance that improves by less than 10% ends it). The 3-D fits of
 /// `base` follow unless the slice reached the target; the report names
 /// the reduction chosen, why, and the slice's best error. With
-/// [`TargetReduction::Fixed`], `base`'s reduction alone is used. `base`
+/// [`TargetReduction::Fixed`], `base`'s reduction alone is used. With
+/// [`TargetColour::Auto`], the first reduction is then also searched in
+/// the other colour mode (RGB after luminance-chroma) when the target is
+/// unreached, that reduction holds the best fit and the chroma ratios,
+/// not the luminance, limited it; that search starts fits within 60% of
+/// the time budget from its own start. `base`
 /// gives the engine, grid and design (its relative half-width is
 /// replaced). When a 3-D fit does not reach the target, the report also
 /// gives what the table itself renders at on that fit's grid
@@ -489,6 +590,7 @@ pub fn fit_to_target(
     target_de: f64,
     base: &brdf::BrdfFitSettings,
     reduction: TargetReduction,
+    colour: TargetColour,
     validation: ValidationSettings,
     budget: TargetBudget,
 ) -> Result<(brdf::FittedBrdf, TargetReport), RenderError> {
@@ -519,7 +621,7 @@ pub fn fit_to_target(
         budget,
         start,
     };
-    let (why, chosen, tried) = run_searches(&goal, base, reduction)?;
+    let (why, chosen, tried) = run_searches(&goal, base, reduction, colour)?;
     let Some(Measured {
         fitted,
         errors,
@@ -574,6 +676,7 @@ pub fn fit_to_target(
         grid_floor,
         colour_split,
         dims: fitted.reduction.dims(),
+        colour: fitted.mode,
         why,
         rel_tol: attempt.rel_tol,
         bytes: fitted.byte_size_f32(),
@@ -588,4 +691,46 @@ pub fn fit_to_target(
         seconds: start.elapsed().as_secs_f64(),
     };
     Ok((fitted, report))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use brdf::ColourMode;
+
+    fn attempt(limiting: Option<char>) -> TargetAttempt {
+        TargetAttempt {
+            dims: 2,
+            colour: ColourMode::LuminanceChroma,
+            rel_tol: 0.16,
+            seconds: 1.0,
+            result: limiting.map(|_| (400, 3.0)),
+            widened: if limiting.is_some() { 2.0 } else { 1.0 },
+            limiting,
+            cut: None,
+            shell: false,
+            over_budget: false,
+            fitted_within: None,
+        }
+    }
+
+    /// RGB follows luminance-chroma only where a chroma ratio, never the
+    /// luminance, limited a fit; luminance-chroma follows RGB always.
+    #[test]
+    fn rgb_is_tried_where_the_chroma_ratios_limit() {
+        let lc = ColourMode::LuminanceChroma;
+        let may = |limits: &[Option<char>]| {
+            let tried: Vec<TargetAttempt> = limits.iter().map(|&l| attempt(l)).collect();
+            other_colour_may_help(lc, &tried)
+        };
+        assert!(!may(&[]));
+        assert!(!may(&[None, None]));
+        assert!(may(&[Some('r')]));
+        assert!(may(&[None, Some('b'), Some('r')]));
+        assert!(!may(&[Some('r'), Some('Y')]));
+        assert!(!may(&[Some('Y')]));
+        assert!(other_colour_may_help(ColourMode::Rgb, &[]));
+        assert_eq!(other_colour(lc), ColourMode::Rgb);
+        assert_eq!(other_colour(ColourMode::Rgb), lc);
+    }
 }

@@ -9,13 +9,21 @@ use serde::Serialize;
 pub struct TargetAttempt {
     /// Fitting coordinates: 2 (the slice) or 3.
     pub dims: usize,
+    /// The colour mode of its functions.
+    pub colour: brdf::ColourMode,
     /// Perceptual relative half-width.
     pub rel_tol: f64,
+    /// Seconds spent on it: the fit and its validation renders.
+    pub seconds: f64,
     /// Bytes (f32) and the worse mean CIEDE2000 of the two scenes; `None`
     /// when no fit within the coefficient budget meets these intervals.
     pub result: Option<(usize, f64)>,
     /// The largest factor a channel's intervals were widened by (1: none).
     pub widened: f64,
+    /// The function (`Y`, `r`, `b` or `r`, `g`, `b`) that limited the fit:
+    /// the first widened most, or with no fit at all; `None` when none was
+    /// widened. It says whether the luminance or the colour costs most.
+    pub limiting: Option<char>,
     /// The evaluation cut chosen for this fit by the validation renders
     /// (degrees; `None`: the whole hemisphere). See
     /// [`super::choose_evaluation_cut`].
@@ -82,6 +90,8 @@ pub struct TargetReport {
     pub reached: bool,
     /// Fitting coordinates of the chosen fit.
     pub dims: usize,
+    /// The colour mode of the chosen fit.
+    pub colour: brdf::ColourMode,
     /// Why this reduction was chosen.
     pub why: String,
     /// The perceptual half-width of the chosen fit.
@@ -123,7 +133,7 @@ impl std::fmt::Display for TargetReport {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         writeln!(
             f,
-            "target mean CIEDE2000 <= {}: {} with a {}-D fit, perceptual intervals of +-{}% ({} bytes{})",
+            "target mean CIEDE2000 <= {}: {} with a {}-D {} fit, perceptual intervals of +-{}% ({} bytes{})",
             self.target_de,
             if self.reached {
                 "reached"
@@ -131,6 +141,7 @@ impl std::fmt::Display for TargetReport {
                 "NOT reached; the closest fit within the budget"
             },
             self.dims,
+            self.colour,
             brdf::scale_text(self.rel_tol * 100.0),
             self.bytes,
             self.max_bytes
@@ -184,15 +195,17 @@ impl std::fmt::Display for TargetReport {
             match a.result {
                 Some((bytes, worst)) => writeln!(
                     f,
-                    "  tried {}-D{} +-{}%{}: {bytes} bytes{}, worse mean CIEDE2000 {worst:.3}{}",
+                    "  tried {}-D {}{} +-{}%{}: {bytes} bytes{}, worse mean CIEDE2000 {worst:.3}{} ({:.1} s)",
                     a.dims,
+                    a.colour,
                     a.fitted_within
                         .map_or(String::new(), |c| format!(" within {c} degrees")),
                     brdf::scale_text(a.rel_tol * 100.0),
-                    if a.widened > 1.0 {
-                        format!(" (widened x{})", brdf::scale_text(a.widened))
-                    } else {
-                        String::new()
+                    match (a.widened > 1.0, a.limiting) {
+                        (true, Some(c)) =>
+                            format!(" (widened x{}: {c})", brdf::scale_text(a.widened)),
+                        (true, None) => format!(" (widened x{})", brdf::scale_text(a.widened)),
+                        (false, _) => String::new(),
                     },
                     if a.over_budget {
                         " (over the byte budget)"
@@ -202,15 +215,19 @@ impl std::fmt::Display for TargetReport {
                     a.cut.map_or(String::new(), |c| format!(
                         " evaluated within {c} degrees{}",
                         if a.shell { " with a shell factor" } else { "" }
-                    ))
+                    )),
+                    a.seconds
                 )?,
                 None => writeln!(
                     f,
-                    "  tried {}-D{} +-{}%: no fit within the coefficient budget",
+                    "  tried {}-D {}{} +-{}%: no fit within the coefficient budget{} ({:.1} s)",
                     a.dims,
+                    a.colour,
                     a.fitted_within
                         .map_or(String::new(), |c| format!(" within {c} degrees")),
-                    brdf::scale_text(a.rel_tol * 100.0)
+                    brdf::scale_text(a.rel_tol * 100.0),
+                    a.limiting.map_or(String::new(), |c| format!(" for {c}")),
+                    a.seconds
                 )?,
             }
         }

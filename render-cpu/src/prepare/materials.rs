@@ -360,7 +360,8 @@ fn key_additions(
     text
 }
 
-/// A scene's `target_de` fit: luminance-chroma over the whole hemisphere
+/// A scene's `target_de` fit: luminance-chroma (and RGB when the chroma
+/// ratios limit the slice) over the whole hemisphere
 /// (or within `max_elevation`), the 2-D slice first and the grid of
 /// [`crate::fidelity::TARGET_GRID_3D`] when the slice cannot reach the
 /// target, validated on the renders `ratfit fit --target-de` uses
@@ -391,6 +392,7 @@ fn fit_for_target(
         target,
         &settings,
         crate::fidelity::TargetReduction::Auto,
+        crate::fidelity::TargetColour::Auto,
         crate::fidelity::ValidationSettings::default(),
         budget,
     )?;
