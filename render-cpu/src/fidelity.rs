@@ -34,6 +34,7 @@ mod cut;
 mod split;
 mod target;
 mod target_report;
+mod target_search;
 pub use cut::{
     choose_evaluation_cut, render_check_choosing_cut, CutChoice, CutTried, EVALUATION_CUTS,
 };
