@@ -356,6 +356,9 @@ fn key_additions(
             v.seed,
             crate::fidelity::TARGET_TIME_BUDGET_S
         );
+        // The search may end in RGB on the slice: a fit chosen by the
+        // luminance-chroma searches alone is not read back.
+        text += " colour=auto";
     }
     text
 }
