@@ -180,17 +180,7 @@ fn run_searches(
     let whole_3d = base.reduction().kind == brdf::ReductionKind::Full3d
         && base.reduction().max_elevation_deg >= 90.0;
     if let (Some(_), true, false) = (goal.budget.bytes, whole_3d, reached(&searches)) {
-        let from = over_budget_at.iter().copied().fold(TOLERANCES[0], f64::min);
-        let tolerances: Vec<f64> = TOLERANCES
-            .iter()
-            .copied()
-            .filter(|&t| t <= from * (1.0 + 1e-9))
-            .collect();
-        let tolerances = if tolerances.is_empty() {
-            vec![from]
-        } else {
-            tolerances
-        };
+        let tolerances = within_cut_tolerances(&over_budget_at);
         let settings = base
             .clone()
             .with_reduction(base.reduction().with_max_elevation(TARGET_CUT_DEGREES));
@@ -207,10 +197,10 @@ fn run_searches(
         // Only where the first reduction is still the best, and with a
         // time allowance of its own: it runs after the budget's deadline
         // on the slowest files.
-        let best = (0..searches.len())
-            .min_by(|&a, &b| searches[a].1.worst().total_cmp(&searches[b].1.worst()));
         let (settings, k) = first;
-        if best == Some(k) && other_colour_may_help(base.colour_mode(), &searches[k].1.tried) {
+        if lowest_error(&searches) == Some(k)
+            && other_colour_may_help(base.colour_mode(), &searches[k].1.tried)
+        {
             let mode = other_colour(base.colour_mode());
             let deadline = goal.start.elapsed().as_secs_f64() + OTHER_COLOUR_SHARE * budget_s;
             let settings = settings.with_colour_mode(mode);
@@ -238,9 +228,37 @@ fn run_searches(
         .iter()
         .flat_map(|(_, s)| s.tried.iter().cloned())
         .collect();
-    let k = (0..searches.len())
-        .min_by(|&a, &b| searches[a].1.worst().total_cmp(&searches[b].1.worst()))
-        .unwrap_or(0);
+    let k = lowest_error(&searches).unwrap_or(0);
+    let why = why_chosen(&searches, k);
+    let best = searches.swap_remove(k).1.best;
+    Ok((why, best, tried))
+}
+
+/// The search with the lowest worse-scene error (the earlier between equal
+/// errors); `None` when there is none.
+fn lowest_error(searches: &[(String, Search)]) -> Option<usize> {
+    (0..searches.len()).min_by(|&a, &b| searches[a].1.worst().total_cmp(&searches[b].1.worst()))
+}
+
+/// The tolerances of the search within [`TARGET_CUT_DEGREES`]: from the
+/// tightest at which the whole-hemisphere fits passed the byte budget
+/// (`over_budget_at`; the loosest of [`TOLERANCES`] when none did).
+fn within_cut_tolerances(over_budget_at: &[f64]) -> Vec<f64> {
+    let from = over_budget_at.iter().copied().fold(TOLERANCES[0], f64::min);
+    let tolerances: Vec<f64> = TOLERANCES
+        .iter()
+        .copied()
+        .filter(|&t| t <= from * (1.0 + 1e-9))
+        .collect();
+    if tolerances.is_empty() {
+        vec![from]
+    } else {
+        tolerances
+    }
+}
+
+/// Why search `k` was chosen, with the best error of every search.
+fn why_chosen(searches: &[(String, Search)], k: usize) -> String {
     let parts: Vec<String> = searches
         .iter()
         .map(|(what, s)| {
@@ -252,7 +270,7 @@ fn run_searches(
             }
         })
         .collect();
-    let why = match searches.get(k) {
+    match searches.get(k) {
         Some((what, s)) if s.best.is_some() => format!(
             "{what} chosen; the best fit of each search renders at (worse scene): {}",
             parts.join(", ")
@@ -261,9 +279,7 @@ fn run_searches(
             "no fit within the budget; the best fit of each search renders at (worse scene): {}",
             parts.join(", ")
         ),
-    };
-    let best = searches.swap_remove(k).1.best;
-    Ok((why, best, tried))
+    }
 }
 
 /// The smallest perceptual fit whose validation renders reach mean
@@ -275,8 +291,8 @@ fn run_searches(
 /// coefficients, usually), stopping at the first that reaches the target
 /// or when `budget.seconds` is spent (checked between fits, so the last fit
 /// may run past it, and a search with no fit within the coefficient and
-/// byte budgets yet goes on loosening past it); when none does, the fit with the lowest error is
-/// returned and the report says so. With `budget.bytes`, only fits within
+/// byte budgets yet goes on loosening past it); when none does, the fit
+/// with the lowest error is returned and the report says so. With `budget.bytes`, only fits within
 /// it are returned: no function is given more coefficients than the budget
 /// holds, a shell factor that would pass it is left out, and a tolerance
 /// whose fit passes it is followed by looser ones (by sqrt 2, to +-64%)
