@@ -1,6 +1,7 @@
 //! A scene whose fitted material asks for a render error (`target_de`)
 //! prepares and renders on a glossy measured material.
 
+use brdf::ColourMode;
 use ratfit_tests::data_dir;
 use render_cpu::fidelity::TargetColour;
 use render_cpu::{prepare, render, RenderOptions, SceneDescription};
@@ -124,16 +125,23 @@ fn glossy_target_fit(
     max_coeffs: usize,
     max_bytes: Option<usize>,
 ) -> Result<render_cpu::fidelity::TargetReport, render_cpu::RenderError> {
-    glossy_target_fit_in(target, bins, max_coeffs, max_bytes, TargetColour::Fixed)
+    glossy_target_fit_in(
+        target,
+        bins,
+        max_coeffs,
+        max_bytes,
+        (brdf::ColourMode::Rgb, TargetColour::Fixed),
+    )
 }
 
-/// [`glossy_target_fit`] with the colour modes `colour` allows.
+/// [`glossy_target_fit`] from colour mode `colour.0`, with the colour modes
+/// `colour.1` allows.
 fn glossy_target_fit_in(
     target: f64,
     bins: [usize; 3],
     max_coeffs: usize,
     max_bytes: Option<usize>,
-    colour: TargetColour,
+    colour: (brdf::ColourMode, TargetColour),
 ) -> Result<render_cpu::fidelity::TargetReport, render_cpu::RenderError> {
     use brdf::{BlinnPhong, BrdfFitSettings, PerceptualBounds, Reduction, ReductionKind};
     use render_cpu::fidelity::{fit_to_target, TargetBudget, TargetReduction, ValidationSettings};
@@ -151,6 +159,7 @@ fn glossy_target_fit_in(
     let settings = BrdfFitSettings::default()
         .with_reduction(reduction)
         .with_baselines(false)
+        .with_colour_mode(colour.0)
         .with_design(PerceptualBounds::default())
         .with_fit_settings(
             rational_core::FitSettings::default()
@@ -168,7 +177,7 @@ fn glossy_target_fit_in(
         target,
         &settings,
         TargetReduction::Fixed,
-        colour,
+        colour.1,
         validation,
         TargetBudget::seconds(60.0).with_bytes(max_bytes),
     )
@@ -239,16 +248,17 @@ fn target_fits_widen_by_sqrt_2_at_most_twice() {
 
 /// A byte budget is never passed: fits over it are listed as such and not
 /// returned, and a tolerance whose fit passes it is followed by looser ones
-/// (tighter ones would only grow); a budget nothing fits in is an error
-/// that names it.
+/// (tighter ones would only grow); each RGB channel is held to a third of
+/// it; a budget nothing fits in is an error that names it.
 #[test]
 fn a_target_fit_stays_within_its_byte_budget() {
     // A target every evaluation reaches: the loosest tolerance, no shell.
-    let free = glossy_target_report(1e3, [6, 6, 4], 30);
+    let lc = (ColourMode::LuminanceChroma, TargetColour::Fixed);
+    let free = glossy_target_fit_in(1e3, [6, 6, 4], 30, None, lc).unwrap();
     assert!(free.reached && free.max_bytes.is_none() && free.shell_bytes.is_none());
     assert!((free.rel_tol - 0.16).abs() < 1e-12, "{free}");
     let budget = free.bytes - 4;
-    let bounded = glossy_target_fit(1e3, [6, 6, 4], 30, Some(budget)).unwrap();
+    let bounded = glossy_target_fit_in(1e3, [6, 6, 4], 30, Some(budget), lc).unwrap();
     assert_eq!(bounded.max_bytes, Some(budget));
     assert!(bounded.bytes <= budget, "{bounded}");
     for a in &bounded.tried {
@@ -264,6 +274,17 @@ fn a_target_fit_stays_within_its_byte_budget() {
     let text = bounded.to_string();
     assert!(text.contains(&format!("of at most {budget}")), "{text}");
     assert!(text.contains("(over the byte budget)"), "{text}");
+    // RGB channels carry the whole shape each: held to a third of the
+    // budget, no fit passes it, and the first tolerance widens instead.
+    let free_rgb = glossy_target_report(1e3, [6, 6, 4], 30);
+    let rgb_budget = free_rgb.bytes - 4;
+    let rgb = glossy_target_fit(1e3, [6, 6, 4], 30, Some(rgb_budget)).unwrap();
+    assert!(rgb.bytes <= rgb_budget, "{rgb}");
+    assert!(rgb.tried.iter().all(|a| !a.over_budget), "{rgb}");
+    assert!(
+        (rgb.rel_tol - 0.16).abs() < 1e-12 && rgb.widened > 1.0,
+        "{rgb}"
+    );
     let err = glossy_target_fit(1e-3, [6, 6, 4], 30, Some(8)).unwrap_err();
     assert!(err.to_string().contains("within 8 bytes"), "{err}");
     let err = glossy_target_fit(1e-3, [6, 6, 4], 30, Some(4)).unwrap_err();
@@ -277,7 +298,14 @@ fn a_target_fit_stays_within_its_byte_budget() {
 #[test]
 fn a_missed_target_is_searched_in_both_colour_modes() {
     use brdf::ColourMode;
-    let both = glossy_target_fit_in(1e-3, [6, 6, 4], 30, None, TargetColour::Auto).unwrap();
+    let both = glossy_target_fit_in(
+        1e-3,
+        [6, 6, 4],
+        30,
+        None,
+        (ColourMode::Rgb, TargetColour::Auto),
+    )
+    .unwrap();
     assert!(!both.reached);
     let modes = |r: &render_cpu::fidelity::TargetReport, m: ColourMode| {
         r.tried.iter().filter(|a| a.colour == m).count()
@@ -302,7 +330,14 @@ fn a_missed_target_is_searched_in_both_colour_modes() {
     let fixed = glossy_target_report(1e-3, [6, 6, 4], 30);
     assert_eq!(modes(&fixed, ColourMode::LuminanceChroma), 0, "{fixed}");
     // A target RGB reaches is not searched further.
-    let reached = glossy_target_fit_in(1e3, [6, 6, 4], 30, None, TargetColour::Auto).unwrap();
+    let reached = glossy_target_fit_in(
+        1e3,
+        [6, 6, 4],
+        30,
+        None,
+        (ColourMode::Rgb, TargetColour::Auto),
+    )
+    .unwrap();
     assert!(reached.reached, "{reached}");
     assert_eq!(modes(&reached, ColourMode::LuminanceChroma), 0, "{reached}");
     assert_eq!(reached.colour, ColourMode::Rgb);

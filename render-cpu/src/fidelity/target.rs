@@ -294,7 +294,7 @@ fn why_chosen(searches: &[(String, Search)], k: usize) -> String {
 /// byte budgets yet goes on loosening past it); when none does, the fit
 /// with the lowest error is returned and the report says so. With `budget.bytes`, only fits within
 /// it are returned: no function is given more coefficients than the budget
-/// holds, a shell factor that would pass it is left out, and a tolerance
+/// holds (an RGB channel a third of it), a shell factor that would pass it is left out, and a tolerance
 /// whose fit passes it is followed by looser ones (by sqrt 2, to +-64%)
 /// instead of tighter ones; when still no fit is within it, the 3-D
 /// search runs again with the budget split evenly between the functions.

@@ -58,7 +58,9 @@ const MAX_WIDENINGS: usize = 2;
 /// The engine of a target fit: `settings`' with the target's widening,
 /// and no function given more coefficients than the byte budget holds (its
 /// fits stop there and widen instead of searching sizes that could not be
-/// returned).
+/// returned). In RGB each channel carries the material's whole shape, so
+/// the three need about as many coefficients each and each is held to an
+/// even third; in luminance-chroma the luminance alone carries it.
 fn target_engine(
     settings: &brdf::BrdfFitSettings,
     budget: TargetBudget,
@@ -71,7 +73,11 @@ fn target_engine(
         .map_err(invalid)?;
     if let Some(bytes) = budget.bytes {
         let (lo, hi) = engine.coeff_range();
-        let cap = (bytes / 4).max(lo);
+        let sharing = match settings.colour_mode() {
+            brdf::ColourMode::Rgb => settings.colour_mode().names().len(),
+            _ => 1,
+        };
+        let cap = (bytes / 4 / sharing).max(lo);
         if cap < hi {
             engine = engine.with_coeff_range(lo, cap).map_err(invalid)?;
         }
@@ -292,4 +298,36 @@ pub(super) fn search_tolerances(
         }
     }
     Ok(search)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rgb_channels_share_the_byte_budget_and_the_luminance_has_it_whole() {
+        let engine = rational_core::FitSettings::default()
+            .with_coeff_range(4, 120)
+            .unwrap();
+        let base = super::super::target_settings(engine);
+        let bytes = TargetBudget {
+            seconds: 60.0,
+            bytes: Some(1024),
+        };
+        let cap = |settings: &brdf::BrdfFitSettings, budget| {
+            target_engine(settings, budget).unwrap().coeff_range().1
+        };
+        // 1,024 B hold 256 f32 coefficients: the luminance may use the
+        // engine's whole 120, each RGB channel a third of 256.
+        assert_eq!(cap(&base, bytes), 120);
+        let rgb = base.clone().with_colour_mode(brdf::ColourMode::Rgb);
+        assert_eq!(cap(&rgb, bytes), 85);
+        assert_eq!(cap(&rgb, TargetBudget::seconds(60.0)), 120);
+        // Never below the engine's smallest budget.
+        let tiny = TargetBudget {
+            seconds: 60.0,
+            bytes: Some(16),
+        };
+        assert_eq!(cap(&rgb, tiny), 4);
+    }
 }
