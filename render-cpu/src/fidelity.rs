@@ -159,6 +159,10 @@ impl RenderErrors {
     }
 }
 
+/// A candidate's values at the samples of each validation render
+/// ([`Validator::sample_values`]; `None` for a render not recorded).
+pub(crate) struct SampleValues(Vec<Option<Vec<[f64; 3]>>>);
+
 /// The table's renders on both scenes, against which candidates are measured.
 ///
 /// Every candidate is rendered with the same seed and the table's sampler,
@@ -390,23 +394,80 @@ impl Validator {
             .collect()
     }
 
-    /// The candidate's renders with the references' seed: replayed from
-    /// the recordings where there are some, rendered otherwise.
-    fn render_candidate(&self, brdf: &Arc<dyn Brdf>) -> Vec<Image> {
+    /// Each scene with `brdf` on the sphere and the references' seed.
+    fn scenes_with(&self, brdf: &Arc<dyn Brdf>) -> Vec<(Scene, usize)> {
         self.scenes
             .iter()
-            .zip(&self.recorded)
-            .map(|(s, recorded)| {
+            .map(|s| {
                 let mut scene = s.clone();
                 scene.integrator.seed = self.settings.seed;
                 let m = sphere_material(&scene);
                 scene.materials[m].brdf = brdf.clone();
-                match recorded {
-                    Some(r) => r.replay(&scene.materials[m]),
-                    None => render(&scene, &|_, _| {}).image,
-                }
+                (scene, m)
             })
             .collect()
+    }
+
+    /// The candidate's renders with the references' seed: replayed from
+    /// the recordings where there are some, rendered otherwise.
+    fn render_candidate(&self, brdf: &Arc<dyn Brdf>) -> Vec<Image> {
+        self.scenes_with(brdf)
+            .iter()
+            .zip(&self.recorded)
+            .map(|((scene, m), recorded)| match recorded {
+                Some(r) => r.replay(&scene.materials[*m]),
+                None => render(scene, &|_, _| {}).image,
+            })
+            .collect()
+    }
+
+    /// The values `candidate` takes at each recorded scene's samples
+    /// (`None` for a scene rendered without a recording), for
+    /// [`Validator::measure_reusing`].
+    pub(crate) fn sample_values(&self, candidate: &Arc<dyn Brdf>) -> SampleValues {
+        let scenes = self.scenes_with(candidate);
+        SampleValues(
+            scenes
+                .iter()
+                .zip(&self.recorded)
+                .map(|((scene, m), recorded)| {
+                    recorded
+                        .as_ref()
+                        .map(|r| r.term_values(&scene.materials[*m], None))
+                })
+                .collect(),
+        )
+    }
+
+    /// [`Validator::measure`] for a candidate that equals the one `base`
+    /// was taken from wherever `inside` holds for a sample's directions:
+    /// there its values are reused, elsewhere evaluated. The renders are
+    /// [`Validator::measure`]'s to the last bit when that equality holds.
+    ///
+    /// # Errors
+    /// As [`Validator::measure`].
+    pub(crate) fn measure_reusing(
+        &self,
+        candidate: Arc<dyn Brdf>,
+        base: &SampleValues,
+        inside: &crate::linear::Inside,
+    ) -> Result<RenderErrors, RenderError> {
+        let start = Instant::now();
+        let images: Vec<Image> = self
+            .scenes_with(&candidate)
+            .iter()
+            .zip(&self.recorded)
+            .zip(&base.0)
+            .map(|(((scene, m), recorded), base)| match (recorded, base) {
+                (Some(r), Some(values)) => {
+                    let reuse = Some((values.as_slice(), inside));
+                    r.image_of(&r.term_values(&scene.materials[*m], reuse))
+                }
+                (Some(r), None) => r.replay(&scene.materials[*m]),
+                (None, _) => render(scene, &|_, _| {}).image,
+            })
+            .collect();
+        self.errors_of(images, start)
     }
 
     /// The table's renders, lights first.
@@ -422,6 +483,11 @@ impl Validator {
     pub fn measure(&self, candidate: Arc<dyn Brdf>) -> Result<RenderErrors, RenderError> {
         let start = Instant::now();
         let images = self.render_candidate(&candidate);
+        self.errors_of(images, start)
+    }
+
+    /// The errors of a candidate's renders against the references.
+    fn errors_of(&self, images: Vec<Image>, start: Instant) -> Result<RenderErrors, RenderError> {
         let scenes = self
             .references
             .iter()

@@ -20,6 +20,10 @@ use crate::math::{add, mul, scale, Vec3};
 use crate::scene::{PreparedMaterial, Scene};
 use rayon::prelude::*;
 
+/// Which samples' directions `(wi, wo)` take values given beforehand
+/// ([`LinearRender::term_values`]).
+pub(crate) type Inside = dyn Fn(Vec3, Vec3) -> bool + Sync;
+
 /// Most bytes a recording may take (estimated before recording, from the
 /// pixels, samples and lights); larger renders are not recorded.
 pub const MAX_RECORD_BYTES: usize = 512 << 20;
@@ -224,6 +228,95 @@ impl LinearRender {
                     material.eval_incident(&batch.wi, wo, &mut batch.f);
                     for (f, w) in batch.f.iter().zip(&batch.weight) {
                         l = add(l, mul(*f, *w));
+                    }
+                }
+                l.map(|c| c as f32)
+            })
+            .collect();
+        Image::new(self.width, self.height, pixels)
+    }
+}
+
+impl LinearRender {
+    /// Each term's value under `material`, in recording order, evaluated as
+    /// [`LinearRender::replay`] evaluates it; where `reuse` is given as
+    /// `(values, inside)`, a term whose directions satisfy `inside` takes
+    /// the value `values` holds for it instead (the caller vouches that
+    /// `material` evaluates to exactly that there).
+    pub(crate) fn term_values(
+        &self,
+        material: &PreparedMaterial,
+        reuse: Option<(&[[f64; 3]], &Inside)>,
+    ) -> Vec<[f64; 3]> {
+        let mut values = vec![[0.0; 3]; self.wi.len()];
+        // Each pixel's terms are contiguous: one slice per pixel.
+        let mut pixels: Vec<(usize, &mut [[f64; 3]])> =
+            Vec::with_capacity(self.width * self.height);
+        let mut rest = values.as_mut_slice();
+        for p in 0..self.width * self.height {
+            let first = self.group_start[self.pixel_start[p]];
+            let end = self.group_start[self.pixel_start[p + 1]];
+            let (mine, tail) = rest.split_at_mut(end - first);
+            pixels.push((p, mine));
+            rest = tail;
+        }
+        pixels.into_par_iter().for_each_init(
+            || (Vec::new(), Vec::new(), Vec::new()),
+            |(wi, at, f), (p, out)| {
+                let offset = self.group_start[self.pixel_start[p]];
+                for g in self.pixel_start[p]..self.pixel_start[p + 1] {
+                    let wo = self.group_wo[g];
+                    wi.clear();
+                    at.clear();
+                    for k in self.group_start[g]..self.group_start[g + 1] {
+                        if let Some((values, inside)) = reuse {
+                            if inside(self.wi[k], wo) {
+                                out[k - offset] = values[k];
+                                continue;
+                            }
+                        }
+                        match self.evaluation[k] {
+                            Evaluation::Single => {
+                                out[k - offset] = material.eval(self.wi[k], wo);
+                            }
+                            Evaluation::Batched => {
+                                wi.push(self.wi[k]);
+                                at.push(k - offset);
+                            }
+                        }
+                    }
+                    f.clear();
+                    f.resize(wi.len(), [0.0; 3]);
+                    material.eval_incident(wi, wo, f);
+                    for (&k, v) in at.iter().zip(f.iter()) {
+                        out[k] = *v;
+                    }
+                }
+            },
+        );
+        values
+    }
+
+    /// The image of term values ([`LinearRender::term_values`]): each
+    /// pixel's constant plus its terms, summed in [`LinearRender::replay`]'s
+    /// order (a group's single terms, then its batched ones), so that the
+    /// image is the replay's to the last bit.
+    pub(crate) fn image_of(&self, values: &[[f64; 3]]) -> Image {
+        let pixels: Vec<[f32; 3]> = (0..self.width * self.height)
+            .into_par_iter()
+            .map(|p| {
+                let mut l = self.constant[p];
+                for g in self.pixel_start[p]..self.pixel_start[p + 1] {
+                    let terms = self.group_start[g]..self.group_start[g + 1];
+                    for k in terms.clone() {
+                        if self.evaluation[k] == Evaluation::Single {
+                            l = add(l, mul(values[k], self.weight[k]));
+                        }
+                    }
+                    for k in terms {
+                        if self.evaluation[k] == Evaluation::Batched {
+                            l = add(l, mul(values[k], self.weight[k]));
+                        }
                     }
                 }
                 l.map(|c| c as f32)

@@ -25,6 +25,7 @@ pub struct FitInDomain {
     batched: brdf::BatchedFit,
     compact: brdf::CompactBrdf,
     f32_error: f64,
+    uses_f32: bool,
 }
 
 /// Largest relative difference of the f32 path from the f64 one (over
@@ -43,6 +44,18 @@ impl FitInDomain {
             batched: brdf::BatchedFit::new(fit),
             compact,
             f32_error,
+            uses_f32: f32_error <= F32_TOLERANCE,
+        }
+    }
+
+    /// [`FitInDomain::new`] evaluated in f32 or in f64 as `uses_f32` says,
+    /// whatever its own comparison: the values another evaluation of the
+    /// same functions takes where the two agree (`crate::fidelity`'s cut
+    /// choice reuses them).
+    pub(crate) fn on_path(fit: brdf::FittedBrdf, uses_f32: bool) -> Self {
+        Self {
+            uses_f32,
+            ..Self::new(fit)
         }
     }
 
@@ -56,7 +69,7 @@ impl FitInDomain {
     /// Whether the renderer evaluates the compact f32 form (it agrees with
     /// the f64 fit within [`F32_TOLERANCE`]); else the f64 fit.
     pub fn uses_f32(&self) -> bool {
-        self.f32_error <= F32_TOLERANCE
+        self.uses_f32
     }
 
     /// The fit.

@@ -2,7 +2,7 @@
 //! elevation cut its validation renders prefer, without fitting the
 //! functions again, with or without a shell factor beyond the cut.
 
-use super::{RenderErrors, Validator, RENDER_CHECK};
+use super::{RenderErrors, SampleValues, Validator, RENDER_CHECK};
 use crate::RenderError;
 use brdf::{Brdf, FittedBrdf, ShellFactor, SHELL_BIN_CHOICES};
 use serde::Serialize;
@@ -13,6 +13,11 @@ use std::sync::Arc;
 /// and cc_green_malachite, docs/results/fidelity-2026-12-05-replay.md);
 /// each cut costs three more validations per fit.
 pub const EVALUATION_CUTS: [f64; 4] = [80.0, 75.0, 70.0, 65.0];
+
+/// Samples whose directions are this much (degrees) inside a cut take the
+/// uncut fit's values: every evaluation path leaves them unmoved, in f32
+/// as in f64, and the shell factor is 1 there.
+const INSIDE_MARGIN_DEG: f64 = 0.01;
 
 /// What [`choose_evaluation_cut`] chose.
 #[derive(Debug, Clone)]
@@ -167,6 +172,11 @@ pub fn choose_evaluation_cut(
         name: table.name(),
         source,
     };
+    // Every variant equals `fitted` within its cut, where most samples
+    // lie: their values there come from one evaluation of `fitted` on each
+    // evaluation path (f32 or f64) a variant takes.
+    let base_fit = fitted.clone();
+    let mut bases: [Option<SampleValues>; 2] = [None, None];
     let mut measured = vec![(fitted, errors)];
     for (degrees, plain, measure_plain) in within {
         let mut variants = Vec::new();
@@ -178,8 +188,18 @@ pub fn choose_evaluation_cut(
             let shelled = plain.clone().with_shell(shell).map_err(material_error)?;
             variants.push((shelled, Some(bins)));
         }
+        let cos_inside = (degrees - INSIDE_MARGIN_DEG).to_radians().cos();
+        let inside =
+            move |wi: brdf::Vec3, wo: brdf::Vec3| wi[2] >= cos_inside && wo[2] >= cos_inside;
         for (variant, shell_bins) in variants {
-            let errors = validator.measure(Arc::new(crate::FitInDomain::new(variant.clone())))?;
+            let material = crate::FitInDomain::new(variant.clone());
+            let path = material.uses_f32();
+            let base = bases[usize::from(path)].get_or_insert_with(|| {
+                let on_path: Arc<dyn Brdf> =
+                    Arc::new(crate::FitInDomain::on_path(base_fit.clone(), path));
+                validator.sample_values(&on_path)
+            });
+            let errors = validator.measure_reusing(Arc::new(material), base, &inside)?;
             tried.push(CutTried {
                 cut: Some(degrees),
                 shell: shell_bins.is_some(),
@@ -224,6 +244,78 @@ pub fn render_check_choosing_cut(
 mod tests {
     use super::*;
     use crate::fidelity::ValidationSettings;
+
+    /// Reusing the uncut fit's values inside a cut renders every variant
+    /// (each cut, with and without a shell factor, on both evaluation
+    /// paths) exactly as rendering it whole does.
+    #[test]
+    fn variants_inside_their_cut_reuse_the_uncut_values_to_the_last_bit() {
+        let glossy = brdf::BlinnPhong {
+            kd: [0.2, 0.3, 0.4],
+            ks: [0.4, 0.4, 0.4],
+            exponent: 8.0,
+        };
+        let reduction = brdf::Reduction::default()
+            .with_kind(brdf::ReductionKind::Full3d)
+            .with_resolution(6, 6)
+            .with_phi_resolution(6)
+            .whole_hemisphere();
+        let settings = brdf::BrdfFitSettings::default()
+            .with_reduction(reduction)
+            .with_baselines(false);
+        let (fitted, _) = brdf::fit_brdf(&glossy, &settings).unwrap();
+        let validator = Validator::new(
+            Arc::new(glossy),
+            ValidationSettings {
+                size: 24,
+                sky_spp: 4,
+                ..RENDER_CHECK
+            },
+        )
+        .unwrap();
+        let mut reused = 0;
+        for uses_f32 in [false, true] {
+            let on_path = |fit: &FittedBrdf| -> Arc<dyn Brdf> {
+                Arc::new(crate::FitInDomain::on_path(fit.clone(), uses_f32))
+            };
+            let base = validator.sample_values(&on_path(&fitted));
+            for degrees in EVALUATION_CUTS {
+                let plain = fitted.evaluated_within(degrees).unwrap();
+                let shell = ShellFactor::fit(&glossy, &plain, [4, 4]).unwrap();
+                let shelled = plain.clone().with_shell(shell).unwrap();
+                let cos_inside = (degrees - INSIDE_MARGIN_DEG).to_radians().cos();
+                let inside = move |wi: brdf::Vec3, wo: brdf::Vec3| {
+                    wi[2] >= cos_inside && wo[2] >= cos_inside
+                };
+                for variant in [plain, shelled] {
+                    let whole = validator.measure(on_path(&variant)).unwrap();
+                    let fast = validator
+                        .measure_reusing(on_path(&variant), &base, &inside)
+                        .unwrap();
+                    assert_eq!(whole.images.len(), fast.images.len());
+                    for (a, b) in whole.images.iter().zip(&fast.images) {
+                        assert!(a.pixels == b.pixels, "cut {degrees}, f32 {uses_f32}");
+                    }
+                    reused += 1;
+                }
+            }
+        }
+        assert_eq!(reused, 2 * 2 * EVALUATION_CUTS.len());
+        // The uncut fit differs beyond a cut: reusing its values
+        // everywhere would render another image.
+        let base = validator.sample_values(&on_path_f64(&fitted));
+        let cut = on_path_f64(&fitted.evaluated_within(65.0).unwrap());
+        let everywhere = |_: brdf::Vec3, _: brdf::Vec3| true;
+        let wrong = validator
+            .measure_reusing(cut.clone(), &base, &everywhere)
+            .unwrap();
+        let right = validator.measure(cut).unwrap();
+        assert!(wrong.images[1].pixels != right.images[1].pixels);
+    }
+
+    fn on_path_f64(fit: &FittedBrdf) -> Arc<dyn Brdf> {
+        Arc::new(crate::FitInDomain::on_path(fit.clone(), false))
+    }
 
     #[test]
     fn the_cut_chosen_is_the_best_of_those_measured_and_cut_fits_are_kept() {
