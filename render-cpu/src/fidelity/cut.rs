@@ -11,7 +11,8 @@ use std::sync::Arc;
 /// The elevation cuts (degrees) [`choose_evaluation_cut`] tries besides
 /// none. 65 degrees wins on two clear coats' slices (cc_iris_purple_gem
 /// and cc_green_malachite, docs/results/fidelity-2026-12-05-replay.md);
-/// each cut costs three more validations per fit.
+/// each cut costs three more validations per fit, which evaluate the fit
+/// only at the samples beyond the cut (the rest are the uncut fit's).
 pub const EVALUATION_CUTS: [f64; 4] = [80.0, 75.0, 70.0, 65.0];
 
 /// Samples whose directions are this much (degrees) inside a cut take the
