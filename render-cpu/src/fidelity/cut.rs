@@ -246,11 +246,9 @@ mod tests {
     use super::*;
     use crate::fidelity::ValidationSettings;
 
-    /// Reusing the uncut fit's values inside a cut renders every variant
-    /// (each cut, with and without a shell factor, on both evaluation
-    /// paths) exactly as rendering it whole does.
-    #[test]
-    fn variants_inside_their_cut_reuse_the_uncut_values_to_the_last_bit() {
+    /// A glossy material, its 3-D fit over the whole hemisphere on a
+    /// coarse grid, and small validation renders of it.
+    fn glossy_fit() -> (brdf::BlinnPhong, FittedBrdf, Validator) {
         let glossy = brdf::BlinnPhong {
             kd: [0.2, 0.3, 0.4],
             ks: [0.4, 0.4, 0.4],
@@ -274,6 +272,15 @@ mod tests {
             },
         )
         .unwrap();
+        (glossy, fitted, validator)
+    }
+
+    /// Reusing the uncut fit's values inside a cut renders every variant
+    /// (each cut, with and without a shell factor, on both evaluation
+    /// paths) exactly as rendering it whole does.
+    #[test]
+    fn variants_inside_their_cut_reuse_the_uncut_values_to_the_last_bit() {
+        let (glossy, fitted, validator) = glossy_fit();
         let mut reused = 0;
         for uses_f32 in [false, true] {
             let on_path = |fit: &FittedBrdf| -> Arc<dyn Brdf> {
@@ -320,29 +327,7 @@ mod tests {
 
     #[test]
     fn the_cut_chosen_is_the_best_of_those_measured_and_cut_fits_are_kept() {
-        let glossy = brdf::BlinnPhong {
-            kd: [0.2, 0.3, 0.4],
-            ks: [0.4, 0.4, 0.4],
-            exponent: 8.0,
-        };
-        let reduction = brdf::Reduction::default()
-            .with_kind(brdf::ReductionKind::Full3d)
-            .with_resolution(6, 6)
-            .with_phi_resolution(6)
-            .whole_hemisphere();
-        let settings = brdf::BrdfFitSettings::default()
-            .with_reduction(reduction)
-            .with_baselines(false);
-        let (fitted, _) = brdf::fit_brdf(&glossy, &settings).unwrap();
-        let validator = Validator::new(
-            Arc::new(glossy),
-            ValidationSettings {
-                size: 24,
-                sky_spp: 4,
-                ..RENDER_CHECK
-            },
-        )
-        .unwrap();
+        let (glossy, fitted, validator) = glossy_fit();
         let errors = validator
             .measure(Arc::new(crate::FitInDomain::new(fitted.clone())))
             .unwrap();
