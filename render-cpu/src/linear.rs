@@ -198,48 +198,12 @@ impl LinearRender {
     /// each pixel's constant plus its terms, each evaluated as the render
     /// evaluates it (the batched ones in one batch per view).
     pub(crate) fn replay(&self, material: &PreparedMaterial) -> Image {
-        #[derive(Default)]
-        struct Batch {
-            wi: Vec<Vec3>,
-            weight: Vec<[f64; 3]>,
-            f: Vec<[f64; 3]>,
-        }
-        let pixels: Vec<[f32; 3]> = (0..self.width * self.height)
-            .into_par_iter()
-            .map_init(Batch::default, |batch, p| {
-                let mut l = self.constant[p];
-                for g in self.pixel_start[p]..self.pixel_start[p + 1] {
-                    let wo = self.group_wo[g];
-                    batch.wi.clear();
-                    batch.weight.clear();
-                    for k in self.group_start[g]..self.group_start[g + 1] {
-                        match self.evaluation[k] {
-                            Evaluation::Single => {
-                                l = add(l, mul(material.eval(self.wi[k], wo), self.weight[k]));
-                            }
-                            Evaluation::Batched => {
-                                batch.wi.push(self.wi[k]);
-                                batch.weight.push(self.weight[k]);
-                            }
-                        }
-                    }
-                    batch.f.clear();
-                    batch.f.resize(batch.wi.len(), [0.0; 3]);
-                    material.eval_incident(&batch.wi, wo, &mut batch.f);
-                    for (f, w) in batch.f.iter().zip(&batch.weight) {
-                        l = add(l, mul(*f, *w));
-                    }
-                }
-                l.map(|c| c as f32)
-            })
-            .collect();
-        Image::new(self.width, self.height, pixels)
+        self.image_of(&self.term_values(material, None))
     }
-}
 
-impl LinearRender {
     /// Each term's value under `material`, in recording order, evaluated as
-    /// [`LinearRender::replay`] evaluates it; where `reuse` is given as
+    /// the render evaluates it (single terms one by one, batched ones in one
+    /// batch per view); where `reuse` is given as
     /// `(values, inside)`, a term whose directions satisfy `inside` takes
     /// the value `values` holds for it instead (the caller vouches that
     /// `material` evaluates to exactly that there).
@@ -298,9 +262,9 @@ impl LinearRender {
     }
 
     /// The image of term values ([`LinearRender::term_values`]): each
-    /// pixel's constant plus its terms, summed in [`LinearRender::replay`]'s
-    /// order (a group's single terms, then its batched ones), so that the
-    /// image is the replay's to the last bit.
+    /// pixel's constant plus its terms, summed in the render's order (a
+    /// group's single terms, then its batched ones), so that the image is
+    /// the render's to the last bit.
     pub(crate) fn image_of(&self, values: &[[f64; 3]]) -> Image {
         let pixels: Vec<[f32; 3]> = (0..self.width * self.height)
             .into_par_iter()
