@@ -494,78 +494,6 @@ impl Basis {
         }
     }
 
-    /// `(sum_j a_j phi_j(x), sum_j b_j phi_j(x))` over the first
-    /// `max(a.len(), b.len())` functions at `x` (original coordinates), in
-    /// `D` coordinates: a rational function's numerator and denominator in
-    /// one pass over the flat table, each summed in the order of `j` with
-    /// the same products as [`Basis::for_each_value`], so the values agree
-    /// with it to the last bit. `None` when `D` is not the basis's dimension
-    /// or the univariate values pass `STACK_TABLE`.
-    pub(crate) fn two_sums<const D: usize>(
-        &self,
-        x: &[f64],
-        a: &[f64],
-        b: &[f64],
-    ) -> Option<(f64, f64)> {
-        let total: usize = self.max_degree.iter().map(|m| m + 1).sum();
-        if self.dim() != D || D == 0 {
-            return None;
-        }
-        // A per-sample path: clear no more table than the degrees need.
-        if total <= SMALL_PARTIAL_TABLE {
-            Some(self.two_sums_in::<D, SMALL_PARTIAL_TABLE>(x, a, b))
-        } else if total <= PARTIAL_TABLE {
-            Some(self.two_sums_in::<D, PARTIAL_TABLE>(x, a, b))
-        } else if total <= STACK_TABLE {
-            Some(self.two_sums_in::<D, STACK_TABLE>(x, a, b))
-        } else {
-            None
-        }
-    }
-
-    /// [`Basis::two_sums`] with a table of `N` values.
-    fn two_sums_in<const D: usize, const N: usize>(
-        &self,
-        x: &[f64],
-        a: &[f64],
-        b: &[f64],
-    ) -> (f64, f64) {
-        let mut flat = [0.0; N];
-        let mut start = 0;
-        for l in 0..D {
-            let len = self.max_degree[l] + 1;
-            let t = self.domain.map(l, x[l]);
-            self.family.values(t, &mut flat[start..start + len], None);
-            start += len;
-        }
-        let value = |p: &[u32]| -> f64 {
-            let mut v = 1.0;
-            for &at in p {
-                v *= flat[at as usize];
-            }
-            v
-        };
-        let n = a.len().max(b.len()).min(self.len());
-        let both = a.len().min(b.len()).min(n);
-        let mut rows = self.positions[..n * D].chunks_exact(D);
-        let (mut p, mut q) = (0.0, 0.0);
-        for (j, at) in rows.by_ref().take(both).enumerate() {
-            let v = value(at);
-            p += a[j] * v;
-            q += b[j] * v;
-        }
-        // The longer of the two goes on alone.
-        let (longer, sum) = if a.len() > both {
-            (a, &mut p)
-        } else {
-            (b, &mut q)
-        };
-        for (at, c) in rows.zip(&longer[both..]) {
-            *sum += c * value(at);
-        }
-        (p, q)
-    }
-
     /// As [`Basis::eval_into`] with coordinates already mapped to `[-1, 1]`.
     pub fn eval_mapped_into(&self, t: &[f64], out: &mut [f64]) {
         self.for_each_mapped(t, out.len(), |j, v| out[j] = v);
@@ -809,6 +737,68 @@ impl Basis {
             }
         }
     }
+}
+
+/// The numerator and denominator `(sum_j p_j phi_j(x), sum_j q_j phi_j(x))`
+/// of a rational function on `basis` at `x` (original coordinates), in `D`
+/// coordinates: the univariate values in a flat table, then one pass over
+/// `j` in which both sums advance. Each sum follows the order of `j` with
+/// the same products as [`Basis::for_each_value`], so it agrees with that
+/// path to the last bit. `None` when the basis is not in `D` coordinates, a
+/// coefficient vector is longer than the basis, or the univariate values
+/// pass `STACK_TABLE`.
+pub(crate) fn rational_sums<const D: usize>(
+    basis: &Basis,
+    p: &[f64],
+    q: &[f64],
+    x: &[f64],
+) -> Option<(f64, f64)> {
+    if basis.dim() != D || D == 0 || p.len() > basis.len() || q.len() > basis.len() {
+        return None;
+    }
+    let total: usize = basis.max_degree.iter().map(|m| m + 1).sum();
+    // A per-sample path: clear no more table than the degrees need.
+    if total <= SMALL_PARTIAL_TABLE {
+        Some(rational_sums_in::<D, SMALL_PARTIAL_TABLE>(basis, p, q, x))
+    } else if total <= PARTIAL_TABLE {
+        Some(rational_sums_in::<D, PARTIAL_TABLE>(basis, p, q, x))
+    } else if total <= STACK_TABLE {
+        Some(rational_sums_in::<D, STACK_TABLE>(basis, p, q, x))
+    } else {
+        None
+    }
+}
+
+/// [`rational_sums`] with a table of `N` values.
+fn rational_sums_in<const D: usize, const N: usize>(
+    basis: &Basis,
+    p: &[f64],
+    q: &[f64],
+    x: &[f64],
+) -> (f64, f64) {
+    let mut flat = [0.0; N];
+    let mut start = 0;
+    for l in 0..D {
+        let len = basis.max_degree[l] + 1;
+        let t = basis.domain.map(l, x[l]);
+        basis.family.values(t, &mut flat[start..start + len], None);
+        start += len;
+    }
+    let n = p.len().max(q.len());
+    let (mut sp, mut sq) = (0.0, 0.0);
+    for (j, at) in basis.positions[..n * D].chunks_exact(D).enumerate() {
+        let mut v = 1.0;
+        for &k in at {
+            v *= flat[k as usize];
+        }
+        if let Some(c) = p.get(j) {
+            sp += c * v;
+        }
+        if let Some(c) = q.get(j) {
+            sq += c * v;
+        }
+    }
+    (sp, sq)
 }
 
 #[cfg(test)]

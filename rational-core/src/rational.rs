@@ -95,14 +95,14 @@ impl RationalFunction {
                 self.basis.combine(&self.denominator, x),
             );
         }
-        let (a, b) = (&self.numerator[..], &self.denominator[..]);
-        let fast = match self.dim() {
-            2 => self.basis.two_sums::<2>(x, a, b),
-            3 => self.basis.two_sums::<3>(x, a, b),
-            4 => self.basis.two_sums::<4>(x, a, b),
+        let (p, q) = (&self.numerator[..], &self.denominator[..]);
+        let unrolled = match self.dim() {
+            2 => crate::basis::rational_sums::<2>(&self.basis, p, q, x),
+            3 => crate::basis::rational_sums::<3>(&self.basis, p, q, x),
+            4 => crate::basis::rational_sums::<4>(&self.basis, p, q, x),
             _ => None,
         };
-        if let Some(parts) = fast {
+        if let Some(parts) = unrolled {
             return parts;
         }
         let (mut p, mut q) = (0.0, 0.0);
