@@ -133,33 +133,43 @@ impl CompactChannel {
 
     /// `p(x) / q(x)` in f32 (no allocation for degrees up to 63).
     pub fn eval(&self, x: &[f32]) -> f32 {
-        const MAX: usize = 64;
         let d = self.lower.len();
-        let mut tables = [[0.0f32; MAX]; 3];
-        for k in 0..d.min(3) {
+        let degree = (0..d).map(|k| self.max_degree(k)).max().unwrap_or(0);
+        // A per-pair path: clear no larger tables than the degrees need.
+        match (d, degree) {
+            (3, 0..16) => self.eval_in::<3, 16>(x),
+            (3, 16..64) => self.eval_in::<3, 64>(x),
+            (2, 0..16) => self.eval_in::<2, 16>(x),
+            (2, 16..64) => self.eval_in::<2, 64>(x),
+            (1, 0..64) => self.eval_in::<1, 64>(x),
+            _ => self.eval_slow(x),
+        }
+    }
+
+    /// [`CompactChannel::eval`] in `D` coordinates with tables of `N` values
+    /// (the degrees below `N`).
+    fn eval_in<const D: usize, const N: usize>(&self, x: &[f32]) -> f32 {
+        let mut tables = [[0.0f32; N]; D];
+        for (k, table) in tables.iter_mut().enumerate() {
             let w = self.upper[k] - self.lower[k];
             let t = if w > 0.0 {
                 2.0 * (x[k] - self.lower[k]) / w - 1.0
             } else {
                 0.0
             };
-            let deg = self.max_degree(k);
-            if deg >= MAX {
-                return self.eval_slow(x);
-            }
-            univariate_f32(self.family, t, &mut tables[k][..=deg]);
+            univariate_f32(self.family, t, &mut table[..=self.max_degree(k)]);
         }
         let (mut p, mut q) = (0.0f32, 0.0f32);
         for (j, idx) in self.indices.iter().enumerate() {
             let mut phi = 1.0f32;
-            for k in 0..d {
-                phi *= tables[k][idx[k] as usize];
+            for (table, &i) in tables.iter().zip(&idx[..D]) {
+                phi *= table[i as usize];
             }
-            if j < self.num.len() {
-                p += self.num[j] * phi;
+            if let Some(c) = self.num.get(j) {
+                p += c * phi;
             }
-            if j < self.den.len() {
-                q += self.den[j] * phi;
+            if let Some(c) = self.den.get(j) {
+                q += c * phi;
             }
         }
         p / q
@@ -707,3 +717,6 @@ pub fn to_f32(v: Vec3) -> [f32; 3] {
 pub fn describe(r: &Reduction) -> String {
     format!("{:?} in {:?} coordinates", r.kind, r.coordinates)
 }
+
+#[cfg(test)]
+mod tests;
