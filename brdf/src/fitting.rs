@@ -7,9 +7,10 @@ use crate::fit_report::{BrdfFitReport, ChannelReport};
 use crate::fitted::{FittedBrdf, CEILING_OVER_PEAK};
 use crate::geometry::HalfDiff;
 use crate::lobe::Lobe;
+use crate::no_fit::NoFitMemo;
 use crate::reduce::{Reduction, Samples};
 use crate::{Brdf, BrdfError};
-use rational_core::{fit, FitSettings, IntervalData, Progress, RationalFunction, SharedDesign};
+use rational_core::{FitSettings, Fitter, IntervalData, Progress, RationalFunction, SharedDesign};
 use rayon::prelude::*;
 use std::sync::Arc;
 use std::time::Instant;
@@ -27,6 +28,7 @@ pub struct BrdfFitSettings {
     lobe: Option<Lobe>,
     cap_rounds: usize,
     channel_progress: Option<ChannelProgress>,
+    no_fit: Option<NoFitMemo>,
 }
 
 /// Callback receiving each channel's sweep progress: the channel (0, 1 or 2
@@ -63,6 +65,7 @@ impl Default for BrdfFitSettings {
             lobe: None,
             cap_rounds: 2,
             channel_progress: None,
+            no_fit: None,
             fit: FitSettings::default()
                 .with_coeff_range(2, 60)
                 .expect("valid range"),
@@ -127,6 +130,14 @@ impl BrdfFitSettings {
     /// parallel, so one callback sees all three).
     pub fn with_channel_progress(mut self, f: ChannelProgressFn) -> Self {
         self.channel_progress = Some(ChannelProgress(f));
+        self
+    }
+
+    /// Shares proofs of no fit between the fits of one search
+    /// ([`NoFitMemo`]): use one memo only for fits whose settings differ in
+    /// their intervals (the tolerance) and coefficient budgets alone.
+    pub fn with_no_fit_memo(mut self, memo: NoFitMemo) -> Self {
+        self.no_fit = Some(memo);
         self
     }
 
@@ -585,7 +596,15 @@ fn fit_channel(
         Some(d) => engine.with_shared_design(d.clone()),
         None => engine,
     };
-    let report = fit(&data, &engine).map_err(fit_err)?;
+    let proofs = s.no_fit.as_ref().map(NoFitMemo::proofs).unwrap_or_default();
+    let result = Fitter::new(&data)
+        .settings(engine.clone())
+        .no_fit_proofs(&proofs)
+        .fit();
+    if let Some(memo) = &s.no_fit {
+        memo.record(&data, &engine, &result);
+    }
+    let report = result.map_err(fit_err)?;
     let (report, cap_check) = if cap > 0.0 && cap.is_finite() {
         let (r, k) = hold_below_cap(report, &data, s, c, cap).map_err(fit_err)?;
         (r, Some(k))

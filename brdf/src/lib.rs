@@ -39,6 +39,7 @@ pub mod io;
 pub mod lab;
 mod lobe;
 mod material;
+mod no_fit;
 mod reduce;
 mod shell;
 
@@ -72,6 +73,7 @@ pub use io::{merl, rgl};
 pub use lobe::{Lobe, LobeF32, LOBE_ALPHA_RANGE};
 pub use material::Brdf;
 pub use merl::{MerlBrdf, TabulateOptions};
+pub use no_fit::NoFitMemo;
 pub use reduce::{Coordinates, Reduction, ReductionKind, Samples, MAX_BINS};
 pub use rgl::RglBrdf;
 pub use shell::{

@@ -204,3 +204,58 @@ fn plain_intervals_bound_dark_cells_and_every_fit_stays_under_its_cap() {
         assert!(g.abs() <= median * scale * (1.0 + 1e-9), "{g} at {x:?}");
     }
 }
+
+/// Fits `m` at `tol` with `memo`, counting the splits solved.
+fn fit_counting(
+    m: &dyn Brdf,
+    base: &BrdfFitSettings,
+    tol: f64,
+    memo: Option<&brdf::NoFitMemo>,
+) -> (FittedBrdf, usize) {
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    use std::sync::Arc;
+    let solved = Arc::new(AtomicUsize::new(0));
+    let count = solved.clone();
+    let mut s = base
+        .clone()
+        .with_rel_tol(tol)
+        .unwrap()
+        .with_channel_progress(Arc::new(move |_, _| {
+            count.fetch_add(1, Ordering::Relaxed);
+        }));
+    if let Some(memo) = memo {
+        s = s.with_no_fit_memo(memo.clone());
+    }
+    let (fitted, _) = fit_brdf(m, &s).unwrap();
+    (fitted, solved.load(Ordering::Relaxed))
+}
+
+#[test]
+fn proofs_of_no_fit_kept_between_fits_save_solves_and_change_no_fit() {
+    let m = CookTorranceGgx {
+        kd: [0.05, 0.1, 0.3],
+        f0: [0.04; 3],
+        alpha: 0.3,
+    };
+    let engine = rational_core::FitSettings::default()
+        .with_search(rational_core::Search::Staircase)
+        .with_coeff_range(2, 16)
+        .unwrap()
+        .with_widening(2.0, 6)
+        .unwrap();
+    let base = BrdfFitSettings::default()
+        .with_reduction(Reduction::default().with_resolution(24, 24))
+        .with_baselines(false)
+        .with_fit_settings(engine);
+    let memo = brdf::NoFitMemo::new();
+    fit_counting(&m, &base, 0.01, Some(&memo));
+    assert!(!memo.is_empty(), "the 1% fits needed widening");
+    // A tighter tolerance, as a search tries next: the same fit, fewer solves.
+    let (plain, plain_solves) = fit_counting(&m, &base, 0.005, None);
+    let (skipped, skipped_solves) = fit_counting(&m, &base, 0.005, Some(&memo));
+    assert_eq!(skipped, plain);
+    assert!(
+        skipped_solves < plain_solves,
+        "{skipped_solves} solves with the memo, {plain_solves} without"
+    );
+}

@@ -9,8 +9,8 @@ use crate::report::{FitReport, PoleReport, SplitSummary};
 use crate::screen::{data_row, Screened, Subsample};
 use crate::verify::{error_figures, verify, verify_with, Verification};
 use crate::{
-    Basis, FitError, FitSettings, IntervalData, PoleControl, Progress, RationalFunction, Search,
-    Selection,
+    Basis, FitError, FitSettings, IntervalData, NoFitProof, PoleControl, Progress,
+    RationalFunction, Search, Selection,
 };
 use qp_backends::{CancelFlag, LdpProblem, Status};
 use rayon::prelude::*;
@@ -597,6 +597,7 @@ pub fn fit(data: &IntervalData, settings: &FitSettings) -> Result<FitReport, Fit
         settings,
         &NoExtraConstraints,
         &KnownInfeasible::default(),
+        &[],
     )
 }
 
@@ -633,6 +634,7 @@ pub(crate) fn sweep(
     settings: &FitSettings,
     extra: &dyn ExtraConstraints,
     known: &KnownInfeasible,
+    proofs: &[NoFitProof],
 ) -> Result<FitReport, FitError> {
     let start = Instant::now();
     let max_n = check_sizes(data, settings)?;
@@ -642,6 +644,13 @@ pub(crate) fn sweep(
     let mut summaries = Vec::new();
     let nothing_known = KnownInfeasible::default();
     for widenings in 0..=settings.max_widenings {
+        if proofs.iter().any(|p| p.covers(&current, settings)) {
+            // Proved to have no fit: nothing to solve at this width.
+            if widenings < settings.max_widenings {
+                current = current.widened(settings.widen_factor);
+            }
+            continue;
+        }
         let single_budget = settings.min_coeffs == max_n;
         // What was proved at the given intervals says nothing of wider ones.
         let known = if widenings == 0 {

@@ -4,7 +4,7 @@
 
 use crate::fit::{solve_split, split_problem, sweep, KnownInfeasible, SplitFit};
 use crate::problem::{ExtraConstraints, NoExtraConstraints};
-use crate::{FitError, FitReport, FitSettings, IntervalData, Search};
+use crate::{FitError, FitReport, FitSettings, IntervalData, NoFitProof, Search};
 use qp_backends::LdpProblem;
 
 /// A fit of `data` being set up: settings (validated by their own
@@ -31,6 +31,7 @@ pub struct Fitter<'a> {
     settings: FitSettings,
     extra: &'a dyn ExtraConstraints,
     known: KnownInfeasible,
+    proofs: &'a [NoFitProof],
 }
 
 impl<'a> Fitter<'a> {
@@ -41,6 +42,7 @@ impl<'a> Fitter<'a> {
             settings: FitSettings::default(),
             extra: &NoExtraConstraints,
             known: KnownInfeasible::default(),
+            proofs: &[],
         }
     }
 
@@ -77,6 +79,15 @@ impl<'a> Fitter<'a> {
         self
     }
 
+    /// Interval data proved to have no fit ([`NoFitProof`], from sweeps
+    /// with the same extra constraints as this one): the sweep solves
+    /// nothing at a widening level whose data one of them covers, and
+    /// returns what it would without them, sooner.
+    pub fn no_fit_proofs(mut self, proofs: &'a [NoFitProof]) -> Self {
+        self.proofs = proofs;
+        self
+    }
+
     /// The settings in use.
     pub fn current_settings(&self) -> &FitSettings {
         &self.settings
@@ -92,7 +103,13 @@ impl<'a> Fitter<'a> {
     /// Invalid data or settings, too few samples, backend errors, or
     /// [`FitError::NoFeasibleFit`] with every split tried.
     pub fn fit(&self) -> Result<FitReport, FitError> {
-        sweep(self.data, &self.settings, self.extra, &self.known)
+        sweep(
+            self.data,
+            &self.settings,
+            self.extra,
+            &self.known,
+            self.proofs,
+        )
     }
 
     /// The single split P(n_p, n_q), accepted or not (no sweep, no

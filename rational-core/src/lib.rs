@@ -45,6 +45,7 @@ mod fitter;
 pub mod poles;
 mod power;
 mod problem;
+mod proof;
 mod rational;
 mod report;
 mod screen;
@@ -65,6 +66,7 @@ pub use problem::{
     blocked_triangular_factor, condition_number, ExtraConstraints, NoExtraConstraints, Refinement,
     SharedDesign,
 };
+pub use proof::NoFitProof;
 pub use qp_backends::{Backend, SolveOptions, Status};
 pub use rational::RationalFunction;
 pub use report::{FitReport, PoleReport, SplitSummary};

@@ -223,9 +223,13 @@ pub(super) fn search_tolerances(
     deadline_s: f64,
     stop_at_floor: bool,
 ) -> Result<Search, RenderError> {
+    // The tolerances of one search share their proofs of no fit: a
+    // tighter tolerance, or a looser one after the widest widening, is not
+    // solved again where they cover it.
     let settings = settings
         .clone()
-        .with_fit_settings(target_engine(settings, goal.budget)?);
+        .with_fit_settings(target_engine(settings, goal.budget)?)
+        .with_no_fit_memo(brdf::NoFitMemo::new());
     let mut search = Search {
         best: None,
         tried: Vec::new(),
