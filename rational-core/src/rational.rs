@@ -222,13 +222,8 @@ mod tests {
             BasisFamily::Chebyshev,
             BasisFamily::Legendre,
         ];
-        let mut state = 0x2545_f491_4f6c_dd1d_u64;
-        let mut next = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut rng = ratfit_tests::SplitMix64::new(2012);
+        let mut next = move || rng.next_f64();
         for dim in 2..=5 {
             for (case, family) in families.iter().enumerate() {
                 let domain = Domain::new(vec![-0.5; dim], vec![1.5; dim]).unwrap();

@@ -28,13 +28,8 @@ fn channel(
 
 #[test]
 fn the_unrolled_channel_matches_the_general_path_to_the_last_bit() {
-    let mut state = 0x2545_f491_u32;
-    let mut next = move || {
-        state ^= state << 13;
-        state ^= state >> 17;
-        state ^= state << 5;
-        (state >> 8) as f32 / (1u32 << 24) as f32
-    };
+    let mut rng = crate::io::merl::SplitMix::new(2012);
+    let mut next = move || rng.uniform() as f32;
     // Degrees below 16 and from 16 up, in one to three coordinates; the
     // numerator longer, the denominator longer.
     for (dim, len) in [(1, 12), (1, 40), (2, 60), (2, 300), (3, 120), (3, 1000)] {
