@@ -211,8 +211,9 @@ pub(super) fn fit_at(
 /// tighter tolerance improves the error by less than 10% (the reduction's
 /// own error dominates). When even the loosest has no fit, looser ones
 /// follow; when its fit passes the byte budget, looser ones by sqrt 2
-/// follow until one fits within it. Both go on past the deadline while
-/// the search has no fit within the budgets. A channel's intervals are
+/// follow until one fits within it, and then once the tolerance halfway
+/// (geometrically) between that one and the last over the budget. Both go
+/// on past the deadline while the search has no fit within the budgets. A channel's intervals are
 /// widened by [`WIDEN_STEP`] at most [`MAX_WIDENINGS`] times (reported):
 /// widened further, a perceptual design's floors and caps stop meaning
 /// anything.
@@ -237,6 +238,9 @@ pub(super) fn search_tolerances(
     let mut previous = f64::INFINITY;
     let mut queue: Vec<f64> = tolerances.to_vec();
     let (mut k, mut loosened, mut loosened_for_bytes) = (0, false, false);
+    // The last tolerance whose fit passed the byte budget, and whether the
+    // one between it and the first within the budget was tried.
+    let (mut over_at, mut refined): (Option<f64>, bool) = (None, false);
     let past_deadline = || goal.start.elapsed().as_secs_f64() > deadline_s;
     while k < queue.len() {
         let t = queue[k];
@@ -275,6 +279,7 @@ pub(super) fn search_tolerances(
         let worst = m.errors.worst_mean();
         search.tried.push(m.attempt.clone());
         if over_budget {
+            over_at = Some(t);
             if search.best.is_some() {
                 // Tighter intervals than a fit within the budget only grow.
                 break;
@@ -295,6 +300,17 @@ pub(super) fn search_tolerances(
         }
         let at_floor = stop_at_floor && worst > 0.9 * previous;
         previous = previous.min(worst);
+        // Loosened for bytes by sqrt 2, the first fit within the budget may
+        // leave much of it unused: the tolerance halfway (geometrically) to
+        // the last one over the budget is tried once.
+        if let (true, false, false, Some(over)) = (loosened_for_bytes, reached, refined, over_at) {
+            if !past_deadline() {
+                queue = vec![(over * t).sqrt()];
+                k = 0;
+                refined = true;
+                continue;
+            }
+        }
         // Among the loosened tolerances the first feasible one (within the
         // byte budget) is the best.
         if reached || at_floor || loosened || loosened_for_bytes || past_deadline() {
