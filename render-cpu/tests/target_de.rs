@@ -291,6 +291,48 @@ fn a_target_fit_stays_within_its_byte_budget() {
     assert!(err.to_string().contains("max_bytes"), "{err}");
 }
 
+/// A search loosened for bytes (its first fit over the budget, the next
+/// looser one within) tries once the tolerance halfway between the two,
+/// geometrically, and returns the lower worse-scene error of the fits
+/// within the budget.
+#[test]
+fn a_search_loosened_for_bytes_tries_the_tolerance_between_once() {
+    let lc = (ColourMode::LuminanceChroma, TargetColour::Fixed);
+    let free = glossy_target_fit_in(1e3, [6, 6, 4], 30, None, lc).unwrap();
+    let budget = free.bytes - 4;
+    let missed = glossy_target_fit_in(1e-3, [6, 6, 4], 30, Some(budget), lc).unwrap();
+    assert!(!missed.reached && missed.bytes <= budget, "{missed}");
+    // The whole hemisphere's search: over the budget from 16%, within it
+    // looser, then the tolerance between.
+    let whole: Vec<_> = missed
+        .tried
+        .iter()
+        .filter(|a| a.fitted_within.is_none())
+        .collect();
+    let first_within = whole
+        .iter()
+        .position(|a| a.result.is_some() && !a.over_budget)
+        .expect("a fit within the budget");
+    assert!(first_within >= 1, "{missed}");
+    let (over, within) = (&whole[first_within - 1], &whole[first_within]);
+    assert!(
+        over.over_budget && over.rel_tol < within.rel_tol,
+        "{missed}"
+    );
+    let between = whole.get(first_within + 1).expect("the tolerance between");
+    let halfway = (over.rel_tol * within.rel_tol).sqrt();
+    assert!((between.rel_tol - halfway).abs() < 1e-12, "{missed}");
+    assert_eq!(whole.len(), first_within + 2, "tried once: {missed}");
+    let worst = |a: &render_cpu::fidelity::TargetAttempt| a.result.map(|(_, e)| e);
+    let best_within = [within, between]
+        .iter()
+        .filter(|a| !a.over_budget)
+        .filter_map(|a| worst(a))
+        .fold(f64::INFINITY, f64::min);
+    let returned = missed.scenes.iter().map(|e| e.mean_de).fold(0.0, f64::max);
+    assert!(returned <= best_within, "{missed}");
+}
+
 /// With the colour mode left to it, a missed target is also searched in
 /// the other mode (luminance-chroma after RGB), every attempt names its
 /// mode, and the fit returned is the lowest worse-scene error of all;
