@@ -540,6 +540,24 @@ impl SampleErrors {
     }
 }
 
+/// The sweep of `data`, skipping what `memo`'s proofs cover and adding what
+/// it proves to them.
+fn sweep_sharing_proofs(
+    data: &IntervalData,
+    engine: &FitSettings,
+    memo: Option<&NoFitMemo>,
+) -> Result<rational_core::FitReport, rational_core::FitError> {
+    let proofs = memo.map(NoFitMemo::proofs).unwrap_or_default();
+    let result = Fitter::new(data)
+        .settings(engine.clone())
+        .no_fit_proofs(&proofs)
+        .fit();
+    if let Some(memo) = memo {
+        memo.record(data, engine, &result);
+    }
+    result
+}
+
 fn fit_channel(
     samples: &Samples,
     c: usize,
@@ -596,15 +614,7 @@ fn fit_channel(
         Some(d) => engine.with_shared_design(d.clone()),
         None => engine,
     };
-    let proofs = s.no_fit.as_ref().map(NoFitMemo::proofs).unwrap_or_default();
-    let result = Fitter::new(&data)
-        .settings(engine.clone())
-        .no_fit_proofs(&proofs)
-        .fit();
-    if let Some(memo) = &s.no_fit {
-        memo.record(&data, &engine, &result);
-    }
-    let report = result.map_err(fit_err)?;
+    let report = sweep_sharing_proofs(&data, &engine, s.no_fit.as_ref()).map_err(fit_err)?;
     let (report, cap_check) = if cap > 0.0 && cap.is_finite() {
         let (r, k) = hold_below_cap(report, &data, s, c, cap).map_err(fit_err)?;
         (r, Some(k))
