@@ -10,9 +10,10 @@ const MAX_PROOFS: usize = 16;
 
 /// Proofs of no fit ([`NoFitProof`]) shared by the fits of one search, for
 /// any of their functions: a fit skips the widening levels they cover and
-/// adds what its own sweep proves. A search that tightens its tolerance, or
-/// loosens it after the widest widening had no fit, then solves nothing it
-/// has already refused. Clones share the proofs.
+/// adds what its own sweep proves. A search that tightens its tolerance
+/// then solves nothing it has already refused; a looser tolerance is
+/// seldom covered (widening is symmetric on a log scale, a tolerance on a
+/// linear one). Clones share the proofs.
 #[derive(Debug, Clone, Default)]
 pub struct NoFitMemo(Arc<Mutex<Vec<NoFitProof>>>);
 
