@@ -127,6 +127,16 @@ impl ColourMode {
         })
     }
 
+    /// Whether function `c` carries the light (a channel, or the
+    /// luminance), rather than a colour ratio: its perceptual floor follows
+    /// the tolerance ([`crate::PerceptualBounds::light_floor`]).
+    pub fn carries_light(self, c: usize) -> bool {
+        match self {
+            ColourMode::Rgb => c < 3,
+            ColourMode::LuminanceChroma => c == 0,
+        }
+    }
+
     /// The functions' names, for reports.
     pub fn names(self) -> [char; 3] {
         match self {

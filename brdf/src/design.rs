@@ -12,7 +12,12 @@
 //! * visibility: `visibility * median(f cos_i cos_o) / (cos_i cos_o)`, an
 //!   absolute floor on the cosine-weighted value relative to the level most
 //!   of a render shows (not the specular peak, which covers few pixels),
-//!   loose towards grazing;
+//!   loose towards grazing. For the function that carries the light (the
+//!   luminance of the luminance-chroma mode) the floor follows the
+//!   tolerance, at most `visibility`
+//!   ([`PerceptualBounds::light_floor_per_tol`]): a fixed 2% would bind
+//!   most dim cells of a fit at 8% and leave a dark body 20% off where the
+//!   renders see it;
 //! * noise: `noise_factor * sigma * v`, never tighter than the measurement's
 //!   own scatter, with `sigma` estimated from the table ([`estimate_noise`]).
 //!
@@ -46,12 +51,25 @@ pub struct PerceptualBounds {
     /// Absolute floor on `f cos_i cos_o`, as a fraction of its median over
     /// the trusted elevations.
     pub visibility: f64,
+    /// For the function that carries the light, the floor is at most this
+    /// multiple of `rel_tol` (and at most `visibility`), so that a tighter
+    /// tolerance also tightens the dim cells: `1/16` gives the visibility
+    /// floor of 2% at +-32% and 0.5% at +-8%. `None` (fit files written
+    /// before it) keeps `visibility` for every function.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub light_floor_per_tol: Option<f64>,
     /// Half-widths are at least this many estimated noise deviations.
     pub noise_factor: f64,
     /// Upper bounds are at most this multiple of the channel's peak (and
     /// the dense cap check of `brdf::fitting` holds the fit below it).
     pub peak_cap: f64,
 }
+
+/// The default [`PerceptualBounds::light_floor_per_tol`]. Measured on the
+/// RGL files with `--target-de 1 --max-bytes 1024`: the luminance's floor
+/// at `rel_tol / 16` lowers the worse scene's error on five of eleven
+/// (docs/results/fidelity-2026-12-05-light-floor.md).
+pub const LIGHT_FLOOR_PER_TOL: f64 = 1.0 / 16.0;
 
 /// The cap on a fitted value, as a multiple of the channel's largest upper
 /// bound, that the dense cap check enforces on plain fits and that the
@@ -60,12 +78,14 @@ pub const DEFAULT_PEAK_CAP: f64 = 1.5;
 
 impl Default for PerceptualBounds {
     /// 4% where visible (about one CIEDE2000 unit at mid grey), a floor of
-    /// 2% of the median cosine-weighted value, two noise deviations, a cap
-    /// of [`DEFAULT_PEAK_CAP`] times the peak.
+    /// 2% of the median cosine-weighted value (for the luminance, a
+    /// sixteenth of the tolerance when that is less), two noise
+    /// deviations, a cap of [`DEFAULT_PEAK_CAP`] times the peak.
     fn default() -> Self {
         Self {
             rel_tol: 0.04,
             visibility: 0.02,
+            light_floor_per_tol: Some(LIGHT_FLOOR_PER_TOL),
             noise_factor: 2.0,
             peak_cap: DEFAULT_PEAK_CAP,
         }
@@ -88,6 +108,21 @@ impl PerceptualBounds {
         Ok(self)
     }
 
+    /// The visibility floor of the function that carries the light:
+    /// `min(visibility, light_floor_per_tol * rel_tol)`, or `visibility`
+    /// without a proportional floor.
+    pub fn light_floor(&self) -> f64 {
+        self.light_floor_per_tol
+            .map_or(self.visibility, |k| self.visibility.min(k * self.rel_tol))
+    }
+
+    /// The same design for the function that carries the light: its
+    /// visibility floor is [`PerceptualBounds::light_floor`].
+    pub fn for_light(mut self) -> Self {
+        self.visibility = self.light_floor();
+        self
+    }
+
     /// Checks every field.
     ///
     /// # Errors
@@ -102,6 +137,11 @@ impl PerceptualBounds {
         }
         if !(self.visibility >= 0.0 && self.visibility < 1.0) {
             return Err(bad("visibility floor", self.visibility));
+        }
+        if let Some(k) = self.light_floor_per_tol {
+            if !(k >= 0.0 && k.is_finite()) {
+                return Err(bad("light floor per tolerance", k));
+            }
         }
         if !(self.noise_factor >= 0.0 && self.noise_factor.is_finite()) {
             return Err(bad("noise factor", self.noise_factor));
@@ -247,6 +287,10 @@ pub struct ChannelBounds {
     /// the colour mode's perceptual factor for this function).
     #[serde(default)]
     pub rel_tol: f64,
+    /// The visibility floor used, as a fraction of the median of
+    /// `f cos_i cos_o` (0 in reports written before it was recorded).
+    #[serde(default)]
+    pub visibility: f64,
     /// Largest value over cells within 70 degrees of the normal.
     pub peak: f64,
     /// Median of `f cos_i cos_o` there.
@@ -309,6 +353,7 @@ impl Samples {
         let cap = bounds.peak_cap * peak;
         let mut info = ChannelBounds {
             rel_tol: bounds.rel_tol,
+            visibility: bounds.visibility,
             peak,
             weighted_median,
             noise: noise.global,
@@ -436,6 +481,47 @@ mod tests {
                 assert!(h >= 0.04 * v * (1.0 - 1e-12));
             }
         }
+    }
+
+    #[test]
+    fn the_light_floor_follows_the_tolerance_up_to_the_visibility_floor() {
+        let at = |t: f64| PerceptualBounds::default().with_rel_tol(t).unwrap();
+        let close = |a: f64, b: f64| (a - b).abs() < 1e-15;
+        assert!(close(at(0.08).light_floor(), 0.005));
+        assert!(close(at(0.32).light_floor(), 0.02));
+        assert!(close(at(0.64).light_floor(), 0.02));
+        let fixed = PerceptualBounds {
+            light_floor_per_tol: None,
+            ..at(0.08)
+        };
+        assert!(close(fixed.light_floor(), 0.02));
+        assert_eq!(fixed.for_light(), fixed);
+        // The floor used is reported, and binds fewer cells when lower.
+        let samples = noisy_table(0.0);
+        let (light_data, _, light) = samples
+            .channel_perceptual(0, &at(0.08).for_light())
+            .unwrap();
+        let (ratio_data, _, ratio) = samples.channel_perceptual(0, &at(0.08)).unwrap();
+        assert!(close(light.visibility, 0.005) && close(ratio.visibility, 0.02));
+        assert!(light.floor_cells < ratio.floor_cells, "{light:?} {ratio:?}");
+        for k in 0..light_data.len() {
+            assert!(
+                light_data.hi()[k] - light_data.lo()[k] <= ratio_data.hi()[k] - ratio_data.lo()[k]
+            );
+        }
+        for bad in [-1.0, f64::NAN, f64::INFINITY] {
+            let d = PerceptualBounds {
+                light_floor_per_tol: Some(bad),
+                ..at(0.08)
+            };
+            assert!(d.validate().is_err(), "{bad}");
+        }
+        // A design recorded before the proportional floor reads as without it.
+        let old: PerceptualBounds = serde_json::from_str(
+            r#"{"rel_tol":0.08,"visibility":0.02,"noise_factor":2.0,"peak_cap":1.5}"#,
+        )
+        .unwrap();
+        assert_eq!(old.light_floor_per_tol, None);
     }
 
     #[test]

@@ -110,9 +110,13 @@ impl fmt::Display for BrdfFitReport {
         if let Some(d) = &self.design {
             writeln!(
                 f,
-                "  perceptual intervals: +-{}% where visible, floor {}% of the median of f cos_i cos_o (within 70 degrees), >= {} noise deviations, capped at {}x the peak; every cell of the hemisphere",
+                "  perceptual intervals: +-{}% where visible, floor {}% of the median of f cos_i cos_o (within 70 degrees){}, >= {} noise deviations, capped at {}x the peak; every cell of the hemisphere",
                 d.rel_tol * 100.0,
                 d.visibility * 100.0,
+                match d.light_floor_per_tol {
+                    Some(k) => format!(" ({:.3}% for the light: at most {k:.4} of the tolerance)", d.light_floor() * 100.0),
+                    None => String::new(),
+                },
                 d.noise_factor,
                 d.peak_cap
             )?;
@@ -120,8 +124,8 @@ impl fmt::Display for BrdfFitReport {
                 if let Some(b) = &c.bounds {
                     writeln!(
                         f,
-                        "  {}   +-{:.2}% where visible, peak {:.4e}, noise {:.2}% (estimated), cells bound by perception / floor / noise: {} / {} / {}",
-                        c.channel, b.rel_tol * 100.0, b.peak, b.noise * 100.0, b.perceptual_cells, b.floor_cells, b.noise_cells,
+                        "  {}   +-{:.2}% where visible, floor {:.3}%, peak {:.4e}, noise {:.2}% (estimated), cells bound by perception / floor / noise: {} / {} / {}",
+                        c.channel, b.rel_tol * 100.0, b.visibility * 100.0, b.peak, b.noise * 100.0, b.perceptual_cells, b.floor_cells, b.noise_cells,
                     )?;
                 }
             }

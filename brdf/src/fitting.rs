@@ -571,6 +571,11 @@ fn fit_channel(
             // matches the luminance's at the material's typical colour.
             let factor = s.mode.perceptual_factors(samples.typical_colour(s.mode))[c];
             let design = design.with_rel_tol(design.rel_tol * factor)?;
+            let design = if s.mode.carries_light(c) {
+                design.for_light()
+            } else {
+                design
+            };
             let (d, u, b) = samples.channel_perceptual(c, &design)?;
             (d, u, Some(b))
         }

@@ -50,6 +50,7 @@ pub use compact::{CompactBrdf, CompactChannel};
 pub use compact_batch::BatchedFit;
 pub use design::{
     estimate_noise, ChannelBounds, NoiseEstimate, PerceptualBounds, DEFAULT_PEAK_CAP,
+    LIGHT_FLOOR_PER_TOL,
 };
 pub use downsample::DownsampledTable;
 pub use error::{write_atomic, BrdfError};

@@ -259,3 +259,28 @@ fn proofs_of_no_fit_kept_between_fits_save_solves_and_change_no_fit() {
         "{skipped_solves} solves with the memo, {plain_solves} without"
     );
 }
+
+#[test]
+fn the_functions_that_carry_light_get_the_floor_that_follows_the_tolerance() {
+    let m = CookTorranceGgx {
+        kd: [0.05, 0.1, 0.3],
+        f0: [0.04; 3],
+        alpha: 0.2,
+    };
+    let design = brdf::PerceptualBounds::default()
+        .with_rel_tol(0.08)
+        .unwrap();
+    for mode in [brdf::ColourMode::LuminanceChroma, brdf::ColourMode::Rgb] {
+        let s = settings(Reduction::default().with_resolution(24, 24))
+            .with_colour_mode(mode)
+            .with_design(design);
+        let (_, report) = fit_brdf(&m, &s).unwrap();
+        for (c, channel) in report.channels.iter().enumerate() {
+            let used = channel.bounds.as_ref().unwrap().visibility;
+            // Half a percent at 8% for the luminance and the RGB channels,
+            // the fixed 2% for the chroma ratios.
+            let want = if mode.carries_light(c) { 0.005 } else { 0.02 };
+            assert!((used - want).abs() < 1e-15, "{mode} {c}: {used}");
+        }
+    }
+}
