@@ -12,9 +12,9 @@
 //! * visibility: `visibility * median(f cos_i cos_o) / (cos_i cos_o)`, an
 //!   absolute floor on the cosine-weighted value relative to the level most
 //!   of a render shows (not the specular peak, which covers few pixels),
-//!   loose towards grazing. For the function that carries the light (the
-//!   luminance of the luminance-chroma mode) the floor follows the
-//!   tolerance, at most `visibility`
+//!   loose towards grazing. For the functions that carry the light (the
+//!   luminance of the luminance-chroma mode, each channel of an RGB fit)
+//!   the floor follows the tolerance, at most `visibility`
 //!   ([`PerceptualBounds::light_floor_per_tol`]): a fixed 2% would bind
 //!   most dim cells of a fit at 8% and leave a dark body 20% off where the
 //!   renders see it;
@@ -66,8 +66,8 @@ pub struct PerceptualBounds {
 }
 
 /// The default [`PerceptualBounds::light_floor_per_tol`]. Measured on the
-/// RGL files with `--target-de 1 --max-bytes 1024`: the luminance's floor
-/// at `rel_tol / 16` lowers the worse scene's error on five of eleven
+/// RGL files with `--target-de 1 --max-bytes 1024`, it lowers the worse
+/// scene's error on six of the eleven and raises it on one
 /// (docs/results/fidelity-2026-12-05-light-floor.md).
 pub const LIGHT_FLOOR_PER_TOL: f64 = 1.0 / 16.0;
 
@@ -78,8 +78,8 @@ pub const DEFAULT_PEAK_CAP: f64 = 1.5;
 
 impl Default for PerceptualBounds {
     /// 4% where visible (about one CIEDE2000 unit at mid grey), a floor of
-    /// 2% of the median cosine-weighted value (for the luminance, a
-    /// sixteenth of the tolerance when that is less), two noise
+    /// 2% of the median cosine-weighted value (for the luminance and RGB
+    /// channels, a sixteenth of the tolerance when that is less), two noise
     /// deviations, a cap of [`DEFAULT_PEAK_CAP`] times the peak.
     fn default() -> Self {
         Self {
