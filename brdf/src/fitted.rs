@@ -253,7 +253,7 @@ impl Brdf for FittedBrdf {
             let v = self.functions_at(wi_cut, wo_cut);
             return self.finish(match &self.shell {
                 Some(shell) => {
-                    let k = ShellFactor::factors_for(shell.factor(wi, wo), self.mode);
+                    let k = shell.multipliers(wi, wo, self.mode);
                     [v[0] * k[0], v[1] * k[1], v[2] * k[2]]
                 }
                 None => v,

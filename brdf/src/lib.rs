@@ -78,5 +78,6 @@ pub use no_fit::NoFitMemo;
 pub use reduce::{Coordinates, Reduction, ReductionKind, Samples, MAX_BINS};
 pub use rgl::RglBrdf;
 pub use shell::{
-    ShellFactor, DEFAULT_SHELL_BINS, MAX_SHELL_BINS, MAX_SHELL_FACTOR, SHELL_BIN_CHOICES,
+    ShellColour, ShellFactor, ShellLayout, ThetaDSpacing, DEFAULT_SHELL_BINS, MAX_SHELL_BINS,
+    MAX_SHELL_FACTOR, SHELL_BIN_CHOICES, SHELL_CHOICES,
 };

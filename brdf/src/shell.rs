@@ -12,6 +12,18 @@
 //! energy beyond the cut, cell by cell. Within the cut nothing changes.
 //! Half-angle cells follow the specular direction, which a factor of the
 //! two elevations averages away.
+//!
+//! Two choices make the factor follow a render's silhouette more closely
+//! ([`ShellLayout`]). Bins uniform in `1 - cos theta_d`
+//! ([`ThetaDSpacing::Cosine`]) put three of four `theta_d` bins above 41
+//! degrees, where a grazing view's mirror direction lies and Fresnel
+//! brightens it; uniform bins give the range above 67.5 degrees one. And
+//! one factor per fitted function ([`ShellColour::PerFunction`]) also
+//! carries the grazing colour, which turns towards the light's as the
+//! specular part grows. On six RGL files' target fits, 4 x 4 cosine bins
+//! lower the sky scene's error on five against 4 x 4 uniform ones, and a
+//! factor per function on those bins lowers it further on five
+//! (docs/results/fidelity-2026-12-05-shell-layouts.md).
 
 use crate::colour::{luminance, ColourMode};
 use crate::geometry::{HalfDiff, Vec3};
@@ -31,19 +43,144 @@ pub const MAX_SHELL_FACTOR: f64 = 1e6;
 /// square-root warp) by 4 `theta_d`, 128 bytes as f32.
 pub const DEFAULT_SHELL_BINS: [usize; 2] = [8, 4];
 
-/// The bins the render checks try beyond a cut, largest first: the default
-/// 8 x 4 (128 bytes) and 4 x 4 (64 bytes), which keeps most of its gain
-/// and fits fits that the larger one would push past a byte budget.
+/// The bins of [`SHELL_CHOICES`] with uniform `theta_d` bins and one
+/// luminance factor: the default 8 x 4 (128 bytes) and 4 x 4 (64 bytes),
+/// which keeps most of its gain and fits fits that the larger one would
+/// push past a byte budget.
 pub const SHELL_BIN_CHOICES: [[usize; 2]; 2] = [DEFAULT_SHELL_BINS, [4, 4]];
+
+/// How the `theta_d` bins of a shell factor are spaced.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ThetaDSpacing {
+    /// Uniform in `theta_d` over `[0, pi / 2]` (files written before the
+    /// choice existed).
+    #[default]
+    Uniform,
+    /// Uniform in `1 - cos theta_d`: finer towards grazing `theta_d`, where
+    /// the pairs beyond a cut near the specular direction lie.
+    Cosine,
+}
+
+/// What each cell of a shell factor multiplies.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ShellColour {
+    /// One factor: the luminance (every channel of an RGB fit, the
+    /// luminance of a luminance-chroma one), so the colour at the cut is
+    /// kept (files written before the choice existed).
+    #[default]
+    Luminance,
+    /// One factor per fitted function (`r, g, b`, or `Y, r / Y, b / Y`),
+    /// which matches the table's energy in each RGB channel: three times
+    /// the bytes.
+    PerFunction,
+}
+
+impl ShellColour {
+    /// Factors stored per cell.
+    pub fn factors_per_cell(self) -> usize {
+        match self {
+            ShellColour::Luminance => 1,
+            ShellColour::PerFunction => 3,
+        }
+    }
+}
+
+/// The cells of a shell factor: bins, their spacing, and what they
+/// multiply.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+pub struct ShellLayout {
+    /// `theta_h` (square-root warp) and `theta_d` bins.
+    pub bins: [usize; 2],
+    /// Spacing of the `theta_d` bins.
+    pub spacing: ThetaDSpacing,
+    /// What each cell multiplies.
+    pub colour: ShellColour,
+}
+
+impl ShellLayout {
+    /// Uniform `theta_d` bins and one luminance factor per cell.
+    pub const fn luminance(bins: [usize; 2]) -> Self {
+        Self {
+            bins,
+            spacing: ThetaDSpacing::Uniform,
+            colour: ShellColour::Luminance,
+        }
+    }
+
+    /// The same layout with `theta_d` bins uniform in `1 - cos theta_d`.
+    pub const fn cosine(mut self) -> Self {
+        self.spacing = ThetaDSpacing::Cosine;
+        self
+    }
+
+    /// The same layout with one factor per fitted function.
+    pub const fn per_function(mut self) -> Self {
+        self.colour = ShellColour::PerFunction;
+        self
+    }
+
+    /// Bytes of its factors as f32.
+    pub fn byte_size_f32(&self) -> usize {
+        4 * self.bins[0] * self.bins[1] * self.colour.factors_per_cell()
+    }
+
+    /// Its cells in words: `4 x 4 cells`, `1 x 4 cells, theta_d bins
+    /// uniform in cosine, a factor per function`.
+    pub fn describe(&self) -> String {
+        let [nh, nd] = self.bins;
+        let mut out = format!("{nh} x {nd} cells");
+        if self.spacing == ThetaDSpacing::Cosine {
+            out += ", theta_d bins uniform in cosine";
+        }
+        if self.colour == ShellColour::PerFunction {
+            out += ", a factor per function";
+        }
+        out
+    }
+
+    /// Short name for reports: `8x4`, `4x4 cos`, `4x4 cos colour`.
+    pub fn label(&self) -> String {
+        let [nh, nd] = self.bins;
+        let spacing = match self.spacing {
+            ThetaDSpacing::Uniform => "",
+            ThetaDSpacing::Cosine => " cos",
+        };
+        let colour = match self.colour {
+            ShellColour::Luminance => "",
+            ShellColour::PerFunction => " colour",
+        };
+        format!("{nh}x{nd}{spacing}{colour}")
+    }
+}
+
+/// The layouts the render checks try beyond a cut: the luminance factors
+/// of [`SHELL_BIN_CHOICES`] (128 and 64 bytes); luminance factors on
+/// `theta_d` bins uniform in `1 - cos theta_d`, 4 x 4 (64 bytes) and 1 x 4
+/// (16 bytes, which fits beside a fit a few bytes under a budget); and one
+/// factor per function on the same bins, 1 x 4 (48 bytes) and 4 x 4 (192
+/// bytes). The render checks measure each and keep what the renders
+/// prefer within the byte budget; on the 11 RGL files' target searches one
+/// of the four added layouts is kept on six
+/// (docs/results/fidelity-2026-12-05-shell-layouts.md).
+pub const SHELL_CHOICES: [ShellLayout; 6] = [
+    ShellLayout::luminance(DEFAULT_SHELL_BINS),
+    ShellLayout::luminance([4, 4]),
+    ShellLayout::luminance([4, 4]).cosine(),
+    ShellLayout::luminance([1, 4]).cosine(),
+    ShellLayout::luminance([1, 4]).cosine().per_function(),
+    ShellLayout::luminance([4, 4]).cosine().per_function(),
+];
 
 /// Steps of the quadrature [`ShellFactor::fit`] integrates with: midpoints
 /// per cell along `theta_h` and along `theta_d`, and of `phi_d` over the
 /// circle.
 const QUADRATURE: (usize, usize) = (8, 48);
 
-/// A factor of the luminance beyond an elevation cut, on a
-/// `theta_h x theta_d` grid (see the module documentation). Deserialisation
-/// checks it ([`ShellFactor::validate`]).
+/// A factor of the luminance (or of each fitted function) beyond an
+/// elevation cut, on a `theta_h x theta_d` grid (see the module
+/// documentation). Deserialisation checks it ([`ShellFactor::validate`]).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(try_from = "ShellSpec")]
 pub struct ShellFactor {
@@ -53,10 +190,16 @@ pub struct ShellFactor {
     /// Bins of `sqrt(theta_h / (pi / 2))` (the MERL warp, fine near the
     /// specular direction).
     pub n_theta_h: usize,
-    /// Bins of `theta_d` over `[0, pi / 2]`.
+    /// Bins of `theta_d` over `[0, pi / 2]`, spaced as `spacing` says.
     pub n_theta_d: usize,
-    /// One factor per cell, `theta_h` major, each an f32 value; cells no
-    /// grazing pair reaches hold 1.
+    /// Spacing of the `theta_d` bins.
+    #[serde(default)]
+    pub spacing: ThetaDSpacing,
+    /// What each cell multiplies.
+    #[serde(default)]
+    pub colour: ShellColour,
+    /// [`ShellColour::factors_per_cell`] factors per cell, cells `theta_h`
+    /// major, each an f32 value; cells no grazing pair reaches hold 1.
     pub factors: Vec<f64>,
 }
 
@@ -65,6 +208,10 @@ struct ShellSpec {
     cut_deg: f64,
     n_theta_h: usize,
     n_theta_d: usize,
+    #[serde(default)]
+    spacing: ThetaDSpacing,
+    #[serde(default)]
+    colour: ShellColour,
     factors: Vec<f64>,
 }
 
@@ -75,6 +222,8 @@ impl TryFrom<ShellSpec> for ShellFactor {
             cut_deg: s.cut_deg,
             n_theta_h: s.n_theta_h,
             n_theta_d: s.n_theta_d,
+            spacing: s.spacing,
+            colour: s.colour,
             factors: s.factors,
         };
         f.validate()?;
@@ -82,29 +231,103 @@ impl TryFrom<ShellSpec> for ShellFactor {
     }
 }
 
-/// The cell of Rusinkiewicz angles on a `bins` grid.
-pub(crate) fn shell_cell(theta_h: f64, theta_d: f64, bins: [usize; 2]) -> usize {
+/// The cell of Rusinkiewicz angles on a `bins` grid spaced as `spacing`.
+pub(crate) fn shell_cell(
+    theta_h: f64,
+    theta_d: f64,
+    bins: [usize; 2],
+    spacing: ThetaDSpacing,
+) -> usize {
     let h = ((theta_h.max(0.0) / FRAC_PI_2).sqrt() * bins[0] as f64) as usize;
-    let d = (theta_d.max(0.0) / FRAC_PI_2 * bins[1] as f64) as usize;
+    let d = match spacing {
+        ThetaDSpacing::Uniform => theta_d.max(0.0) / FRAC_PI_2,
+        ThetaDSpacing::Cosine => 1.0 - theta_d.clamp(0.0, FRAC_PI_2).cos(),
+    };
+    let d = (d * bins[1] as f64) as usize;
     h.min(bins[0] - 1) * bins[1] + d.min(bins[1] - 1)
+}
+
+/// Integrals of the table's and the fit's values over one cell: the
+/// luminance, then each RGB channel.
+#[derive(Clone, Copy, Default)]
+struct CellSums {
+    table: [f64; 4],
+    fit: [f64; 4],
+}
+
+impl CellSums {
+    fn add(&mut self, weight: f64, table: [f64; 3], fit: [f64; 3]) {
+        for (sums, v) in [(&mut self.table, table), (&mut self.fit, fit)] {
+            sums[0] += weight * luminance(v);
+            for c in 0..3 {
+                sums[c + 1] += weight * v[c];
+            }
+        }
+    }
+
+    /// The factors of the cell: the luminance's ratio, or one per function
+    /// of `mode` so that each RGB channel's integral matches the table's.
+    fn factors(&self, colour: ShellColour, mode: ColourMode) -> Vec<f64> {
+        let ratio = |k: usize| {
+            let (t, f) = (self.table[k], self.fit[k]);
+            if f > 0.0 {
+                (t / f).max(0.0)
+            } else {
+                1.0
+            }
+        };
+        let y = ratio(0);
+        let factors = match (colour, mode) {
+            (ShellColour::Luminance, _) => vec![y],
+            (ShellColour::PerFunction, ColourMode::Rgb) => vec![ratio(1), ratio(2), ratio(3)],
+            // `r = Y (r / Y)`: the ratio's factor is the red channel's over
+            // the luminance's.
+            (ShellColour::PerFunction, ColourMode::LuminanceChroma) => {
+                let of_ratio = |k: usize| if y > 0.0 { ratio(k) / y } else { 1.0 };
+                vec![y, of_ratio(1), of_ratio(3)]
+            }
+        };
+        factors
+            .into_iter()
+            .map(|k| f64::from(k.min(MAX_SHELL_FACTOR) as f32))
+            .collect()
+    }
 }
 
 impl ShellFactor {
     /// Fits the factor of `within` (a fit evaluated within its elevation
     /// cut, without a shell) to `table` on a `bins = [theta_h, theta_d]`
-    /// grid: per cell, the table's luminance integrated against the
-    /// projected solid angle over the pairs beyond the cut, over the fit's.
+    /// grid with uniform `theta_d` bins: per cell, the table's luminance
+    /// integrated against the projected solid angle over the pairs beyond
+    /// the cut, over the fit's. [`ShellFactor::fit_layout`] with
+    /// [`ShellLayout::luminance`].
     ///
     /// # Errors
-    /// `within` has no elevation cut or has a shell already, `bins` outside
-    /// `1..=MAX_SHELL_BINS`, or a cell whose table or fit luminance
-    /// integral is not finite (named).
+    /// As [`ShellFactor::fit_layout`].
     pub fn fit(
         table: &dyn Brdf,
         within: &crate::FittedBrdf,
         bins: [usize; 2],
     ) -> Result<Self, BrdfError> {
+        Self::fit_layout(table, within, ShellLayout::luminance(bins))
+    }
+
+    /// Fits the factor of `within` (a fit evaluated within its elevation
+    /// cut, without a shell) to `table` on `layout`'s cells: per cell, the
+    /// table's luminance (or each RGB channel) integrated against the
+    /// projected solid angle over the pairs beyond the cut, over the fit's.
+    ///
+    /// # Errors
+    /// `within` has no elevation cut or has a shell already, bins outside
+    /// `1..=MAX_SHELL_BINS`, or a cell whose table or fit integral is not
+    /// finite (named).
+    pub fn fit_layout(
+        table: &dyn Brdf,
+        within: &crate::FittedBrdf,
+        layout: ShellLayout,
+    ) -> Result<Self, BrdfError> {
         let cut_deg = within.reduction.max_elevation_deg;
+        let bins = layout.bins;
         let bad = |reason: String| BrdfError::Invalid {
             name: "shell factor",
             reason,
@@ -122,21 +345,29 @@ impl ShellFactor {
         let cos_cut = cut_deg.to_radians().cos();
         let (sub, azimuths) = QUADRATURE;
         // Midpoints of each cell in the warped `u = sqrt(theta_h / (pi/2))`
-        // and in `theta_d`, and of `phi_d` over the circle, so that every
-        // cell is integrated, the narrow ones at the specular direction
-        // included. A pair's measure is `4 cos_d dw_h dw_d`, with
-        // `dtheta_h = pi u du`; the constants cancel in the ratio.
-        let sums: Vec<(f64, f64)> = (0..cells)
+        // and in the `theta_d` spacing's variable, and of `phi_d` over the
+        // circle, so that every cell is integrated, the narrow ones at the
+        // specular direction included. A pair's measure is
+        // `4 cos_d dw_h dw_d`, with `dtheta_h = pi u du` and `sin theta_d
+        // dtheta_d` (uniform) or `d(1 - cos theta_d)` (cosine); the
+        // constants cancel in the ratio.
+        let sums: Vec<CellSums> = (0..cells)
             .into_par_iter()
             .map(|cell| {
                 let (ch, cd) = (cell / bins[1], cell % bins[1]);
-                let (mut t_sum, mut f_sum) = (0.0, 0.0);
+                let mut sums = CellSums::default();
                 for a in 0..sub {
                     let u = (ch as f64 + (a as f64 + 0.5) / sub as f64) / bins[0] as f64;
                     let theta_h = u * u * FRAC_PI_2;
                     for b in 0..sub {
-                        let theta_d = (cd as f64 + (b as f64 + 0.5) / sub as f64) / bins[1] as f64
-                            * FRAC_PI_2;
+                        let v = (cd as f64 + (b as f64 + 0.5) / sub as f64) / bins[1] as f64;
+                        let (theta_d, d_measure) = match layout.spacing {
+                            ThetaDSpacing::Uniform => {
+                                let t = v * FRAC_PI_2;
+                                (t, t.sin())
+                            }
+                            ThetaDSpacing::Cosine => ((1.0 - v).acos(), 1.0),
+                        };
                         for p in 0..azimuths {
                             let phi_d = (p as f64 + 0.5) / azimuths as f64 * 2.0 * PI;
                             let (wi, wo) = HalfDiff {
@@ -153,49 +384,56 @@ impl ShellFactor {
                                 continue;
                             }
                             let weight =
-                                wi[2] * wo[2] * theta_d.cos() * theta_h.sin() * theta_d.sin() * u;
-                            t_sum += weight * luminance(table.eval(wi, wo));
-                            f_sum += weight * luminance(within.eval(wi, wo));
+                                wi[2] * wo[2] * theta_d.cos() * theta_h.sin() * d_measure * u;
+                            sums.add(weight, table.eval(wi, wo), within.eval(wi, wo));
                         }
                     }
                 }
-                (t_sum, f_sum)
+                sums
             })
             .collect();
         // A non-finite integral would otherwise become a factor of 0, 1 or
         // the largest allowed without a word: name the cell instead.
-        if let Some((cell, &(t, f))) = sums
+        let finite = |v: &[f64; 4]| v.iter().all(|x| x.is_finite());
+        if let Some((cell, s)) = sums
             .iter()
             .enumerate()
-            .find(|(_, (t, f))| !(t.is_finite() && f.is_finite()))
+            .find(|(_, s)| !(finite(&s.table) && finite(&s.fit)))
         {
-            let whose = if t.is_finite() {
-                "the fit's"
+            let (whose, v) = if finite(&s.table) {
+                ("the fit's", s.fit)
             } else {
-                "the table's"
+                ("the table's", s.table)
             };
+            let value = v.iter().copied().find(|x| !x.is_finite()).unwrap_or(v[0]);
             return Err(bad(format!(
-                "{whose} luminance integral over cell {cell} ({} x {} cells) beyond the cut is {}",
-                bins[0],
-                bins[1],
-                if t.is_finite() { f } else { t }
+                "{whose} integral over cell {cell} ({} x {} cells) beyond the cut is {value}",
+                bins[0], bins[1],
             )));
         }
         let factors = sums
             .iter()
-            .map(|&(t, f)| {
-                let k = if f > 0.0 { (t / f).max(0.0) } else { 1.0 };
-                f64::from(k.min(MAX_SHELL_FACTOR) as f32)
-            })
+            .flat_map(|s| s.factors(layout.colour, within.mode))
             .collect();
         let shell = Self {
             cut_deg,
             n_theta_h: bins[0],
             n_theta_d: bins[1],
+            spacing: layout.spacing,
+            colour: layout.colour,
             factors,
         };
         shell.validate()?;
         Ok(shell)
+    }
+
+    /// Its cells: bins, spacing and what they multiply.
+    pub fn layout(&self) -> ShellLayout {
+        ShellLayout {
+            bins: [self.n_theta_h, self.n_theta_d],
+            spacing: self.spacing,
+            colour: self.colour,
+        }
     }
 
     /// Checks what evaluation indexes by: a cut in `(0, 90)`, bins in
@@ -221,9 +459,10 @@ impl ShellFactor {
             }
         }
         let cells = self.n_theta_h * self.n_theta_d;
-        if self.factors.len() != cells {
+        let per_cell = self.colour.factors_per_cell();
+        if self.factors.len() != cells * per_cell {
             return Err(bad(format!(
-                "{} factors for {cells} cells",
+                "{} factors for {cells} cells of {per_cell} each",
                 self.factors.len()
             )));
         }
@@ -245,18 +484,31 @@ impl ShellFactor {
         4 * self.factors.len()
     }
 
-    /// The factor at a pair: 1 when both directions are within the cut.
-    pub fn factor(&self, wi: Vec3, wo: Vec3) -> f64 {
+    /// The multipliers of `mode`'s three functions at a pair: 1 when both
+    /// directions are within the cut.
+    pub fn multipliers(&self, wi: Vec3, wo: Vec3, mode: ColourMode) -> [f64; 3] {
         let cos_cut = self.cut_deg.to_radians().cos();
         if wi[2] >= cos_cut && wo[2] >= cos_cut {
-            return 1.0;
+            return [1.0; 3];
         }
         let hd = HalfDiff::from_directions(wi, wo);
-        self.factors[shell_cell(hd.theta_h, hd.theta_d, [self.n_theta_h, self.n_theta_d])]
+        let cell = shell_cell(
+            hd.theta_h,
+            hd.theta_d,
+            [self.n_theta_h, self.n_theta_d],
+            self.spacing,
+        );
+        match self.colour {
+            ShellColour::Luminance => Self::factors_for(self.factors[cell], mode),
+            ShellColour::PerFunction => {
+                let k = &self.factors[3 * cell..3 * cell + 3];
+                [k[0], k[1], k[2]]
+            }
+        }
     }
 
-    /// What the factor multiplies among the three functions: all three in
-    /// RGB, the luminance alone in luminance-chroma.
+    /// What a luminance factor multiplies among the three functions: all
+    /// three in RGB, the luminance alone in luminance-chroma.
     pub fn factors_for(k: f64, mode: ColourMode) -> [f64; 3] {
         match mode {
             ColourMode::Rgb => [k; 3],

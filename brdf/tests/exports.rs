@@ -4,7 +4,7 @@ use brdf::shader::{shader_source, shader_source_named, Language};
 use brdf::{
     compact::to_f32, fit_brdf, from_spherical, BatchedFit, BlinnPhong, Brdf, BrdfFitSettings,
     ColourMode, CompactBrdf, CookTorranceGgx, Coordinates, FittedBrdf, Lobe, Reduction,
-    ReductionKind, ShellFactor,
+    ReductionKind, ShellColour, ShellFactor, ShellLayout, ThetaDSpacing,
 };
 
 fn fits() -> Vec<FittedBrdf> {
@@ -81,13 +81,17 @@ fn fits() -> Vec<FittedBrdf> {
         out.push(f);
     }
     // A tabulated factor beyond an elevation cut, on an RGB fit and on a
-    // luminance-chroma fit with a lobe: every evaluator reads the unclamped
-    // pair and multiplies the same functions.
+    // luminance-chroma fit with a lobe, in each layout: every evaluator
+    // reads the unclamped pair, finds the same cell and multiplies the same
+    // functions.
     let last = out.len() - 1;
+    let layout = ShellLayout::luminance([6, 3]);
     for (k, table) in [(1, &m as &dyn Brdf), (last, &b as &dyn Brdf)] {
-        let within = out[k].evaluated_within(60.0).unwrap();
-        let shell = ShellFactor::fit(table, &within, [6, 3]).unwrap();
-        out.push(within.with_shell(shell).unwrap());
+        for layout in [layout, layout.cosine(), layout.cosine().per_function()] {
+            let within = out[k].evaluated_within(60.0).unwrap();
+            let shell = ShellFactor::fit_layout(table, &within, layout).unwrap();
+            out.push(within.with_shell(shell).unwrap());
+        }
     }
     out
 }
@@ -228,7 +232,17 @@ fn compact_binary_round_trips() {
                 | (u8::from(cut) << 2)
                 | (u8::from(f.lobe.is_some()) << 3)
                 | (1 << 4)
-                | (u8::from(f.shell.is_some()) << 5),
+                | (u8::from(f.shell.is_some()) << 5)
+                | (u8::from(
+                    f.shell
+                        .as_ref()
+                        .is_some_and(|sh| sh.spacing == ThetaDSpacing::Cosine)
+                ) << 6)
+                | (u8::from(
+                    f.shell
+                        .as_ref()
+                        .is_some_and(|sh| sh.colour == ShellColour::PerFunction)
+                ) << 7),
             "flags byte"
         );
         if let Some(sh) = &f.shell {
@@ -251,6 +265,12 @@ fn compact_binary_round_trips() {
             uncut[7] &= !4;
             let e = CompactBrdf::from_bytes(&uncut).unwrap_err().to_string();
             assert!(e.contains("shell factor without an elevation cut"), "{e}");
+        } else {
+            // The shell's layout bits without a shell are named.
+            let mut stray = bytes.clone();
+            stray[7] |= 64;
+            let e = CompactBrdf::from_bytes(&stray).unwrap_err().to_string();
+            assert!(e.contains("without a shell factor"), "{e}");
         }
         let mut negative = bytes.clone();
         negative[lobe_end + 4..lobe_end + 8].copy_from_slice(&(-1.0f32).to_le_bytes());

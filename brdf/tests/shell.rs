@@ -2,8 +2,8 @@
 //! leaves, and the files that carry it.
 
 use brdf::{
-    fit_brdf, Brdf, BrdfFitSettings, CookTorranceGgx, FittedBrdf, Reduction, ReductionKind,
-    ShellFactor, DEFAULT_SHELL_BINS,
+    fit_brdf, Brdf, BrdfFitSettings, ColourMode, CookTorranceGgx, FittedBrdf, Reduction,
+    ReductionKind, ShellColour, ShellFactor, ShellLayout, ThetaDSpacing, DEFAULT_SHELL_BINS,
 };
 use std::f64::consts::{FRAC_PI_2, PI};
 
@@ -18,6 +18,11 @@ fn glossy() -> CookTorranceGgx {
 /// A 3-D fit of `glossy` over the whole hemisphere, evaluated within 70
 /// degrees.
 fn within_70() -> FittedBrdf {
+    within_70_in(ColourMode::Rgb)
+}
+
+/// [`within_70`] with the functions of `mode`.
+fn within_70_in(mode: ColourMode) -> FittedBrdf {
     let reduction = Reduction::default()
         .with_kind(ReductionKind::Full3d)
         .with_resolution(10, 10)
@@ -25,6 +30,7 @@ fn within_70() -> FittedBrdf {
         .whole_hemisphere();
     let settings = BrdfFitSettings::default()
         .with_reduction(reduction)
+        .with_colour_mode(mode)
         .with_rel_tol(0.2)
         .unwrap();
     let (fitted, _) = fit_brdf(&glossy(), &settings).unwrap();
@@ -34,10 +40,15 @@ fn within_70() -> FittedBrdf {
 /// Reflected luminance `int Y cos_i cos_o` over pairs beyond 70 degrees,
 /// on a midpoint grid unlike the one the factor is fitted on.
 fn shell_energy(b: &dyn Brdf) -> f64 {
+    shell_energy_rgb(b)[0]
+}
+
+/// [`shell_energy`] of the luminance, then of each RGB channel.
+fn shell_energy_rgb(b: &dyn Brdf) -> [f64; 4] {
     let (n, m) = (61, 50);
     let cos_cut = 70f64.to_radians().cos();
     let dir = |t: f64, p: f64| [t.sin() * p.cos(), t.sin() * p.sin(), t.cos()];
-    let mut sum = 0.0;
+    let mut sum = [0.0; 4];
     for i in 0..n {
         let ti = (i as f64 + 0.5) / n as f64 * FRAC_PI_2;
         for o in 0..n {
@@ -51,7 +62,11 @@ fn shell_energy(b: &dyn Brdf) -> f64 {
                     continue;
                 }
                 let w = wi[2] * wo[2] * ti.sin() * to.sin();
-                sum += w * brdf::luminance(b.eval(wi, wo));
+                let v = b.eval(wi, wo);
+                sum[0] += w * brdf::luminance(v);
+                for c in 0..3 {
+                    sum[c + 1] += w * v[c];
+                }
             }
         }
     }
@@ -96,17 +111,123 @@ fn the_shell_factor_carries_the_tables_grazing_energy_and_nothing_else() {
     for (a, b) in [((10.0, 0.0), (60.0, 170.0)), ((69.0, 0.0), (5.0, 90.0))] {
         let (wi, wo) = (dir(a.0, a.1), dir(b.0, b.1));
         assert_eq!(shelled.eval(wi, wo), within.eval(wi, wo));
-        assert_eq!(shell.factor(wi, wo), 1.0);
+        assert_eq!(shell.multipliers(wi, wo, within.mode), [1.0; 3]);
     }
     for (a, b) in [((80.0, 0.0), (80.0, 180.0)), ((85.0, 0.0), (30.0, 90.0))] {
         let (wi, wo) = (dir(a.0, a.1), dir(b.0, b.1));
-        let k = shell.factor(wi, wo);
+        let [k, _, _] = shell.multipliers(wi, wo, within.mode);
         assert_ne!(k, 1.0);
         let (plain, scaled) = (within.eval(wi, wo), shelled.eval(wi, wo));
         for c in 0..3 {
             assert!((scaled[c] - k * plain[c]).abs() <= 1e-12 * scaled[c].abs().max(1e-12));
         }
     }
+}
+
+#[test]
+fn a_factor_per_function_carries_each_channels_grazing_energy() {
+    // The glossy material's body is blue and its specular part white, so
+    // its colour changes towards grazing; the fits keep the colour at 70
+    // degrees.
+    let table = glossy();
+    let layout = ShellLayout::luminance([4, 4]).cosine();
+    for mode in [ColourMode::Rgb, ColourMode::LuminanceChroma] {
+        let within = within_70_in(mode);
+        let luminance = ShellFactor::fit_layout(&table, &within, layout).unwrap();
+        let coloured = ShellFactor::fit_layout(&table, &within, layout.per_function()).unwrap();
+        assert_eq!(coloured.factors.len(), 48);
+        assert_eq!(coloured.byte_size_f32(), 192);
+        assert_eq!(coloured.layout(), layout.per_function());
+        assert_eq!(
+            layout.per_function().byte_size_f32(),
+            coloured.byte_size_f32()
+        );
+        let e_table = shell_energy_rgb(&table);
+        let off = |shell: &ShellFactor| {
+            let shelled = within.clone().with_shell(shell.clone()).unwrap();
+            let e = shell_energy_rgb(&shelled);
+            (1..4)
+                .map(|c| (e[c] / e_table[c] - 1.0).abs())
+                .fold(0.0, f64::max)
+        };
+        let (by_luminance, by_function) = (off(&luminance), off(&coloured));
+        eprintln!("{mode:?}: worst channel's grazing energy off by {by_luminance:.4} with one factor, {by_function:.4} with one per function");
+        assert!(
+            by_function < by_luminance / 2.0,
+            "{mode:?}: {by_luminance} -> {by_function}"
+        );
+    }
+}
+
+#[test]
+fn the_render_checks_layouts_start_with_the_uniform_luminance_ones() {
+    // `choose_evaluation_cut` measures these first at every cut.
+    for (k, bins) in brdf::SHELL_BIN_CHOICES.iter().enumerate() {
+        assert_eq!(brdf::SHELL_CHOICES[k], ShellLayout::luminance(*bins));
+    }
+    for layout in brdf::SHELL_CHOICES {
+        let cells = layout.bins[0] * layout.bins[1];
+        assert_eq!(
+            layout.byte_size_f32(),
+            4 * cells * layout.colour.factors_per_cell()
+        );
+    }
+    let labels: Vec<String> = brdf::SHELL_CHOICES.iter().map(ShellLayout::label).collect();
+    assert_eq!(
+        labels,
+        [
+            "8x4",
+            "4x4",
+            "4x4 cos",
+            "1x4 cos",
+            "1x4 cos colour",
+            "4x4 cos colour"
+        ]
+    );
+}
+
+#[test]
+// Factors stored as f32 values are compared exactly.
+#[allow(clippy::float_cmp)]
+fn cosine_bins_are_finer_towards_grazing_theta_d() {
+    let shell = ShellFactor {
+        cut_deg: 70.0,
+        n_theta_h: 1,
+        n_theta_d: 4,
+        spacing: ThetaDSpacing::Cosine,
+        colour: ShellColour::Luminance,
+        factors: vec![1.5, 2.0, 3.0, 4.0],
+    };
+    shell.validate().unwrap();
+    let dir = |t: f64, p: f64| {
+        let (t, p) = (t.to_radians(), p.to_radians());
+        [t.sin() * p.cos(), t.sin() * p.sin(), t.cos()]
+    };
+    // A mirror pair at 75 degrees: theta_d = 75, 1 - cos 75 = 0.74 (the
+    // third bin of four), where uniform bins give the fourth (75 / 90 =
+    // 0.83).
+    let (wi, wo) = (dir(75.0, 0.0), dir(75.0, 180.0));
+    assert_eq!(shell.multipliers(wi, wo, ColourMode::Rgb), [3.0; 3]);
+    assert_eq!(
+        shell.multipliers(wi, wo, ColourMode::LuminanceChroma),
+        [3.0, 1.0, 1.0]
+    );
+    let uniform = ShellFactor {
+        spacing: ThetaDSpacing::Uniform,
+        ..shell.clone()
+    };
+    assert_eq!(uniform.multipliers(wi, wo, ColourMode::Rgb), [4.0; 3]);
+    // One factor per function is read as the cell's three.
+    let coloured = ShellFactor {
+        colour: ShellColour::PerFunction,
+        factors: (0..12).map(f64::from).collect(),
+        ..shell
+    };
+    coloured.validate().unwrap();
+    assert_eq!(
+        coloured.multipliers(wi, wo, ColourMode::LuminanceChroma),
+        [6.0, 7.0, 8.0]
+    );
 }
 
 #[test]
@@ -157,7 +278,7 @@ fn a_table_of_non_finite_values_is_named_not_turned_into_a_factor() {
         .unwrap_err()
         .to_string();
     assert!(
-        e.contains("the table's luminance integral over cell") && e.contains("NaN"),
+        e.contains("the table's integral over cell") && e.contains("NaN"),
         "{e}"
     );
 }
@@ -174,6 +295,25 @@ fn fit_files_with_a_shell_round_trip_and_edited_ones_are_named() {
     let back: FittedBrdf = serde_json::from_str(&json).unwrap();
     assert_eq!(back, shelled);
     let mut value: serde_json::Value = serde_json::from_str(&json).unwrap();
+    // Files written before the layout choices read as uniform luminance
+    // factors; a layout that asks for more factors than the file holds is
+    // named.
+    let mut old = value.clone();
+    let shell = old["shell"].as_object_mut().unwrap();
+    assert!(shell.remove("spacing").is_some() && shell.remove("colour").is_some());
+    let back: FittedBrdf = serde_json::from_value(old).unwrap();
+    assert_eq!(back, shelled);
+    let mut per_function = value.clone();
+    per_function["shell"]["colour"] = serde_json::json!("per_function");
+    let e = serde_json::from_value::<FittedBrdf>(per_function).unwrap_err();
+    assert!(
+        e.to_string().contains("6 factors for 6 cells of 3 each"),
+        "{e}"
+    );
+    let mut unknown = value.clone();
+    unknown["shell"]["spacing"] = serde_json::json!("log");
+    let e = serde_json::from_value::<FittedBrdf>(unknown).unwrap_err();
+    assert!(e.to_string().contains("unknown variant"), "{e}");
     let edits: [(&str, serde_json::Value, &str); 5] = [
         (
             "factors",

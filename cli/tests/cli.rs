@@ -868,10 +868,13 @@ fn the_render_check_of_a_perceptual_fit_chooses_its_evaluation_cut() {
         .lines()
         .find(|l| l.starts_with("evaluation cut chosen by the validation renders"))
         .unwrap_or_else(|| panic!("no cut choice in\n{stdout}"));
-    // Thirteen evaluations measured: none, then 80, 75, 70 and 65 degrees
-    // without and with each shell factor (8 x 4 and 4 x 4 cells).
-    assert_eq!(line.matches(", ").count(), 12, "{line}");
-    assert_eq!(line.matches("+shell ").count(), 8, "{line}");
+    // Seventeen evaluations measured, each with its bytes: none, then 80,
+    // 75, 70 and 65 degrees without and with each uniform luminance shell
+    // factor (8 x 4 and 4 x 4 cells), then the four other layouts at the
+    // best of those cuts.
+    assert_eq!(line.matches(" B)").count(), 17, "{line}");
+    assert_eq!(line.matches("+shell ").count(), 12, "{line}");
+    assert_eq!(line.matches("x4 cos").count(), 4, "{line}");
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&fit).unwrap()).unwrap();
     let got = json["brdf"]["reduction"]["max_elevation_deg"]
@@ -882,10 +885,16 @@ fn the_render_check_of_a_perceptual_fit_chooses_its_evaluation_cut() {
     let shell_bytes = shell["factors"].as_array().map(|f| 4 * f.len());
     let named = match shell_bytes {
         _ if got >= 90.0 => "none, the whole hemisphere".to_string(),
-        Some(b) => format!(
-            "{got} degrees and a shell factor of {b} bytes ({} x {} cells)",
-            shell["n_theta_h"], shell["n_theta_d"]
-        ),
+        Some(b) => {
+            let mut cells = format!("{} x {} cells", shell["n_theta_h"], shell["n_theta_d"]);
+            if shell["spacing"] == "cosine" {
+                cells += ", theta_d bins uniform in cosine";
+            }
+            if shell["colour"] == "per_function" {
+                cells += ", a factor per function";
+            }
+            format!("{got} degrees and a shell factor of {b} bytes ({cells})")
+        }
         None => format!("{got} degrees"),
     };
     assert!(
@@ -899,10 +908,12 @@ fn the_render_check_of_a_perceptual_fit_chooses_its_evaluation_cut() {
         let v = json["render"]["colour_split"][part].as_array().unwrap();
         assert!(v.len() == 2 && v.iter().all(|e| e.as_f64().unwrap() >= 0.0));
     }
-    // The file records every evaluation measured and the choice.
+    // The file records every evaluation measured and the choice: none,
+    // four cuts without and with two shell factors, and four more layouts
+    // at the best of those cuts.
     assert_eq!(
         json["evaluation_cut"]["tried"].as_array().unwrap().len(),
-        13
+        17
     );
     let chosen = json["evaluation_cut"]["chosen"].as_f64().unwrap_or(90.0);
     assert!((chosen - got).abs() < 1e-12, "{chosen} against {got}");

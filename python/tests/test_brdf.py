@@ -165,9 +165,13 @@ def test_perceptual_fits_take_an_elevation_cut_only_when_asked(military_green):
     # cut its renders prefer, as `ratfit fit` does.
     checked = ratfit.fit_brdf(military_green, **dict(quick, render_check=True))
     choice = checked.report["evaluation_cut"]
-    # None, then four cuts, each without and with two shell factors.
-    assert len(choice["tried"]) == 13
-    assert sum(t["shell"] for t in choice["tried"]) == 8
+    # None, then four cuts, each without and with two shell factors, then
+    # four more shell layouts at the cut that did best.
+    assert len(choice["tried"]) == 17
+    assert sum(t["shell"] for t in choice["tried"]) == 12
+    more = choice["tried"][13:]
+    assert len({t["cut"] for t in more}) == 1
+    assert all(t["shell_layout"]["spacing"] == "cosine" for t in more)
     chosen = json.loads(checked.to_json())["brdf"]["reduction"]["max_elevation_deg"]
     assert chosen == (choice["chosen"] or 90.0)
     # Fits at fixed intervals keep their 70-degree default.

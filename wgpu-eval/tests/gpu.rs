@@ -150,11 +150,23 @@ fn synthetic(family: BasisFamily, coordinates: Coordinates, dims: usize, seed: u
         } else {
             std::f32::consts::FRAC_PI_2
         },
-        // A quarter of them (all with the cut) with a shell factor beyond it.
-        shell: (seed % 4 == 0).then(|| brdf::compact::ShellF32 {
-            n_theta_h: 5,
-            n_theta_d: 3,
-            factors: (0..15).map(|k| 0.5 + 0.1 * k as f32).collect(),
+        // A quarter of them (all with the cut) with a shell factor beyond
+        // it: half of those one luminance factor per cell on uniform
+        // `theta_d` bins, half one per function on bins uniform in cosine.
+        shell: (seed % 4 == 0).then(|| {
+            let (spacing, colour) = if seed % 8 == 0 {
+                (brdf::ThetaDSpacing::Uniform, brdf::ShellColour::Luminance)
+            } else {
+                (brdf::ThetaDSpacing::Cosine, brdf::ShellColour::PerFunction)
+            };
+            let n = 15 * colour.factors_per_cell();
+            brdf::compact::ShellF32 {
+                n_theta_h: 5,
+                n_theta_d: 3,
+                spacing,
+                colour,
+                factors: (0..n).map(|k| 0.5 + 0.1 * (k % 17) as f32).collect(),
+            }
         }),
         channels,
     }

@@ -421,20 +421,29 @@ fn post_cut_variants(fitted: &brdf::FittedBrdf, cuts: &[f64]) -> Vec<(f64, brdf:
 }
 
 /// The suffix of a shell factor's row after `, shell factor`: none for the
-/// default bins, ` NH x ND` for others.
-fn shell_row_suffix([nh, nd]: [usize; 2]) -> String {
-    if [nh, nd] == brdf::DEFAULT_SHELL_BINS {
-        String::new()
-    } else {
-        format!(" {nh} x {nd}")
+/// default layout, ` NH x ND` for other luminance factors on uniform bins,
+/// then ` cos` for bins uniform in cosine and ` colour` for a factor per
+/// function.
+fn shell_row_suffix(layout: brdf::ShellLayout) -> String {
+    if layout == brdf::ShellLayout::luminance(brdf::DEFAULT_SHELL_BINS) {
+        return String::new();
     }
+    let [nh, nd] = layout.bins;
+    let mut out = format!(" {nh} x {nd}");
+    if layout.spacing == brdf::ThetaDSpacing::Cosine {
+        out += " cos";
+    }
+    if layout.colour == brdf::ShellColour::PerFunction {
+        out += " colour";
+    }
+    out
 }
 
 /// The rows of `within` (a fit evaluated within an elevation cut) times its
 /// shell factor beyond the cut ([`brdf::ShellFactor`], fitted to the table
-/// here at each of [`brdf::SHELL_BIN_CHOICES`]; its time is added to the
-/// fit's). The default bins' row is named `{name}, shell factor`, the
-/// others' `{name}, shell factor NH x ND`.
+/// here in each layout of [`brdf::SHELL_CHOICES`]; its time is added to
+/// the fit's). The default layout's row is named `{name}, shell factor`,
+/// the others' as [`shell_row_suffix`] says.
 fn measure_with_shells(
     judge: &Judge,
     name: &str,
@@ -443,9 +452,9 @@ fn measure_with_shells(
 ) -> Result<Vec<Row>> {
     let degrees = within.reduction.max_elevation_deg;
     let mut rows = Vec::new();
-    for bins in brdf::SHELL_BIN_CHOICES {
+    for layout in brdf::SHELL_CHOICES {
         let start = Instant::now();
-        let shelled = brdf::ShellFactor::fit(judge.table, &within, bins)
+        let shelled = brdf::ShellFactor::fit_layout(judge.table, &within, layout)
             .and_then(|sh| within.clone().with_shell(sh))
             .with_context(|| {
                 format!(
@@ -454,8 +463,7 @@ fn measure_with_shells(
                 )
             })?;
         let shell_s = start.elapsed().as_secs_f64();
-        let [nh, nd] = bins;
-        let suffix = shell_row_suffix(bins);
+        let suffix = shell_row_suffix(layout);
         rows.push(measure(
             judge,
             Candidate {
@@ -464,7 +472,8 @@ fn measure_with_shells(
                 brdf: Arc::new(FitInDomain::new(shelled)),
                 fit_s: fit_s + shell_s,
                 note: format!(
-                    "the row above times a factor beyond the cut on {nh} x {nd} theta_h x theta_d cells ({shell_s:.2} s)"
+                    "the row above times a factor beyond the cut on {} of theta_h x theta_d ({shell_s:.2} s)",
+                    layout.describe()
                 ),
             },
         )?);

@@ -375,19 +375,18 @@ fn check_material(out: &Path, m: &str, reps: &[&Row], target_bytes: Option<usize
         r.representation.contains("evaluated within")
             && !r.representation.contains(", shell factor")
     }) {
-        for [nh, nd] in brdf::SHELL_BIN_CHOICES {
+        for layout in brdf::SHELL_CHOICES {
             let name = format!(
                 "{}, shell factor{}",
                 plain.representation,
-                shell_row_suffix([nh, nd])
+                shell_row_suffix(layout)
             );
+            let factor_bytes = layout.byte_size_f32();
             match reps.iter().find(|r| r.representation == name) {
-                Some(r) if r.bytes == plain.bytes + 4 * nh * nd => {}
+                Some(r) if r.bytes == plain.bytes + factor_bytes => {}
                 Some(r) => problems.push(format!(
-                    "{m}: {name} has {} bytes, not the fit's {} and {} for its factors",
-                    r.bytes,
-                    plain.bytes,
-                    4 * nh * nd
+                    "{m}: {name} has {} bytes, not the fit's {} and {factor_bytes} for its factors",
+                    r.bytes, plain.bytes,
                 )),
                 None => problems.push(format!("{m}: {name} was not measured")),
             }

@@ -8,6 +8,7 @@ use crate::fitted::FittedBrdf;
 use crate::geometry::Vec3;
 use crate::lobe::LobeF32;
 use crate::reduce::{Coordinates, Reduction};
+use crate::shell::{ShellColour, ThetaDSpacing};
 use crate::BrdfError;
 use rational_core::BasisFamily;
 use std::f32::consts::PI;
@@ -70,9 +71,13 @@ pub struct CompactBrdf {
 pub struct ShellF32 {
     /// Bins of `sqrt(theta_h / (pi / 2))`.
     pub n_theta_h: usize,
-    /// Bins of `theta_d` over `[0, pi / 2]`.
+    /// Bins of `theta_d` over `[0, pi / 2]`, spaced as `spacing` says.
     pub n_theta_d: usize,
-    /// One factor per cell, `theta_h` major.
+    /// Spacing of the `theta_d` bins.
+    pub spacing: ThetaDSpacing,
+    /// What each cell multiplies.
+    pub colour: ShellColour,
+    /// [`ShellColour::factors_per_cell`] factors per cell, `theta_h` major.
     pub factors: Vec<f32>,
 }
 
@@ -80,21 +85,38 @@ impl ShellF32 {
     /// The cell of Rusinkiewicz angles, as [`crate::ShellFactor`] finds it.
     pub fn cell(&self, theta_h: f32, theta_d: f32) -> usize {
         let h = ((theta_h.max(0.0) / (PI / 2.0)).sqrt() * self.n_theta_h as f32) as usize;
-        let d = (theta_d.max(0.0) / (PI / 2.0) * self.n_theta_d as f32) as usize;
+        let d = match self.spacing {
+            ThetaDSpacing::Uniform => theta_d.max(0.0) / (PI / 2.0),
+            ThetaDSpacing::Cosine => 1.0 - theta_d.clamp(0.0, PI / 2.0).cos(),
+        };
+        let d = (d * self.n_theta_d as f32) as usize;
         h.min(self.n_theta_h - 1) * self.n_theta_d + d.min(self.n_theta_d - 1)
     }
 
-    /// The factor at an (unclamped) pair: 1 when both directions are
-    /// within the cut whose cosine is `cos_cut`.
-    pub fn factor(&self, wi: [f32; 3], wo: [f32; 3], cos_cut: f32) -> f32 {
+    /// The multipliers of `mode`'s three functions at an (unclamped) pair:
+    /// 1 when both directions are within the cut whose cosine is `cos_cut`.
+    pub fn multipliers(
+        &self,
+        wi: [f32; 3],
+        wo: [f32; 3],
+        cos_cut: f32,
+        mode: ColourMode,
+    ) -> [f32; 3] {
         if wi[2] >= cos_cut && wo[2] >= cos_cut {
-            return 1.0;
+            return [1.0; 3];
         }
         let (th, td, _) = half_diff_f32(wi, wo);
-        self.factors[self.cell(th, td)]
+        let cell = self.cell(th, td);
+        match self.colour {
+            ShellColour::Luminance => Self::factors_for(self.factors[cell], mode),
+            ShellColour::PerFunction => {
+                let k = &self.factors[3 * cell..3 * cell + 3];
+                [k[0], k[1], k[2]]
+            }
+        }
     }
 
-    /// What the factor multiplies among the three functions.
+    /// What a luminance factor multiplies among the three functions.
     pub fn factors_for(k: f32, mode: ColourMode) -> [f32; 3] {
         match mode {
             ColourMode::Rgb => [k; 3],
@@ -323,6 +345,8 @@ impl CompactBrdf {
             shell: f.shell.as_ref().map(|sh| ShellF32 {
                 n_theta_h: sh.n_theta_h,
                 n_theta_d: sh.n_theta_d,
+                spacing: sh.spacing,
+                colour: sh.colour,
                 factors: sh.factors.iter().map(|&v| v as f32).collect(),
             }),
         }
@@ -371,9 +395,7 @@ impl CompactBrdf {
     /// unclamped pair (all 1 without a shell or within the cut).
     pub fn shell_factors(&self, wi: [f32; 3], wo: [f32; 3]) -> [f32; 3] {
         match &self.shell {
-            Some(sh) => {
-                ShellF32::factors_for(sh.factor(wi, wo, self.max_elevation.cos()), self.mode)
-            }
+            Some(sh) => sh.multipliers(wi, wo, self.max_elevation.cos(), self.mode),
             None => [1.0; 3],
         }
     }
@@ -411,7 +433,9 @@ impl CompactBrdf {
     /// lobe, whose seven f32 (`kd / pi`, `f0`, `alpha`) follow the header;
     /// bit 4 a ceiling, three f32 after the lobe; bit 5 (with bit 2) a
     /// shell factor after the ceiling: one byte each for its `theta_h` and
-    /// `theta_d` bins, then one f32 per cell.
+    /// `theta_d` bins, then one f32 per cell, or three with bit 7 (one per
+    /// function); bit 6 spaces its `theta_d` bins uniformly in
+    /// `1 - cos theta_d`.
     pub fn to_bytes(&self) -> Vec<u8> {
         let mut out = b"RFB1".to_vec();
         let coords = match self.coordinates {
@@ -429,7 +453,17 @@ impl CompactBrdf {
             | (u8::from(cut) << 2)
             | (u8::from(self.lobe.is_some()) << 3)
             | (u8::from(self.ceiling.is_some()) << 4)
-            | (u8::from(self.shell.is_some()) << 5);
+            | (u8::from(self.shell.is_some()) << 5)
+            | (u8::from(
+                self.shell
+                    .as_ref()
+                    .is_some_and(|sh| sh.spacing == ThetaDSpacing::Cosine),
+            ) << 6)
+            | (u8::from(
+                self.shell
+                    .as_ref()
+                    .is_some_and(|sh| sh.colour == ShellColour::PerFunction),
+            ) << 7);
         out.extend_from_slice(&[coords, self.dims as u8, self.channels.len() as u8, flags]);
         out.extend_from_slice(&self.max_theta_d.to_le_bytes());
         if cut {
@@ -494,9 +528,6 @@ impl CompactBrdf {
         if nch != 3 {
             return Err(bad(&format!("{nch} channels (3 expected)")));
         }
-        if b[7] > 63 {
-            return Err(bad(&format!("unknown flags {:#04x}", b[7])));
-        }
         let weighted = b[7] & 1 == 1;
         let mode = if b[7] & 2 == 2 {
             ColourMode::LuminanceChroma
@@ -554,16 +585,8 @@ impl CompactBrdf {
         } else {
             None
         };
-        let shell = if b[7] & 32 == 32 {
-            if b[7] & 4 == 0 {
-                return Err(bad("a shell factor without an elevation cut"));
-            }
-            let (shell, next) = read_shell(b, pos).map_err(|r| bad(&r))?;
-            pos = next;
-            Some(shell)
-        } else {
-            None
-        };
+        let (shell, next) = read_shell(b, pos, b[7]).map_err(|r| bad(&r))?;
+        pos = next;
         let mut channels = Vec::with_capacity(nch);
         for _ in 0..nch {
             let (channel, next) = read_channel(b, pos, dims, weighted).map_err(|r| bad(&r))?;
@@ -587,9 +610,31 @@ impl CompactBrdf {
     }
 }
 
-/// The shell factor of the compact binary at `pos` and the position after
-/// it, or what is wrong.
-fn read_shell(b: &[u8], pos: usize) -> Result<(ShellF32, usize), String> {
+/// The shell factor of the compact binary at `pos` that header `flags`
+/// announce (bit 5, with bits 6 and 7 for its layout), if any, and the
+/// position after it, or what is wrong.
+fn read_shell(b: &[u8], pos: usize, flags: u8) -> Result<(Option<ShellF32>, usize), String> {
+    if flags & 32 == 0 {
+        if flags & 192 != 0 {
+            return Err(format!(
+                "flags {flags:#04x}: shell bits 6-7 without a shell factor"
+            ));
+        }
+        return Ok((None, pos));
+    }
+    if flags & 4 == 0 {
+        return Err("a shell factor without an elevation cut".into());
+    }
+    let spacing = if flags & 64 == 64 {
+        ThetaDSpacing::Cosine
+    } else {
+        ThetaDSpacing::Uniform
+    };
+    let colour = if flags & 128 == 128 {
+        ShellColour::PerFunction
+    } else {
+        ShellColour::Luminance
+    };
     let head = b.get(pos..pos + 2).ok_or("truncated shell factor")?;
     let (n_theta_h, n_theta_d) = (head[0] as usize, head[1] as usize);
     if [n_theta_h, n_theta_d]
@@ -601,9 +646,9 @@ fn read_shell(b: &[u8], pos: usize) -> Result<(ShellF32, usize), String> {
             crate::MAX_SHELL_BINS
         ));
     }
-    let cells = n_theta_h * n_theta_d;
+    let values = n_theta_h * n_theta_d * colour.factors_per_cell();
     let raw = b
-        .get(pos + 2..pos + 2 + 4 * cells)
+        .get(pos + 2..pos + 2 + 4 * values)
         .ok_or("truncated shell factor")?;
     let factors: Vec<f32> = raw
         .chunks_exact(4)
@@ -619,12 +664,14 @@ fn read_shell(b: &[u8], pos: usize) -> Result<(ShellF32, usize), String> {
         ));
     }
     Ok((
-        ShellF32 {
+        Some(ShellF32 {
             n_theta_h,
             n_theta_d,
+            spacing,
+            colour,
             factors,
-        },
-        pos + 2 + 4 * cells,
+        }),
+        pos + 2 + 4 * values,
     ))
 }
 

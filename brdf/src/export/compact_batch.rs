@@ -570,7 +570,7 @@ impl BatchForm for BatchedFit {
         self.fit
             .shell
             .as_ref()
-            .map(|sh| crate::ShellFactor::factors_for(sh.factor(wi, wo), self.fit.mode))
+            .map(|sh| sh.multipliers(wi, wo, self.fit.mode))
     }
 }
 

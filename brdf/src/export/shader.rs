@@ -6,6 +6,7 @@
 use crate::colour::ColourMode;
 use crate::compact::{CompactBrdf, CompactChannel};
 use crate::reduce::Coordinates;
+use crate::shell::{ShellColour, ThetaDSpacing};
 use crate::BrdfError;
 use rational_core::BasisFamily;
 
@@ -281,7 +282,7 @@ fn half_frame_statements(l: Language, prefix: &str) -> String {
 }
 
 /// `{prefix}_shell(wi, wo)`: the shell factor's multipliers of the three
-/// functions at the unclamped pair ([`super::compact::ShellF32::factor`],
+/// functions at the unclamped pair ([`super::compact::ShellF32::multipliers`],
 /// its angles computed as [`super::compact::half_diff_f32`] does); empty for
 /// a fit without a shell.
 fn shell_fn(b: &CompactBrdf, l: Language, prefix: &str) -> String {
@@ -309,24 +310,32 @@ fn shell_fn(b: &CompactBrdf, l: Language, prefix: &str) -> String {
         format!("sqrt(max(theta_h, 0.0) / 1.5707963267949) * {nh}.0"),
         nh,
     );
-    out += &index(
-        "id",
-        format!("max(theta_d, 0.0) / 1.5707963267949 * {nd}.0"),
-        nd,
-    );
+    let spaced = match shell.spacing {
+        ThetaDSpacing::Uniform => "max(theta_d, 0.0) / 1.5707963267949".to_string(),
+        ThetaDSpacing::Cosine => "(1.0 - cos(clamp(theta_d, 0.0, 1.5707963267949)))".to_string(),
+    };
+    out += &index("id", format!("{spaced} * {nd}.0"), nd);
+    let per_cell = shell.colour.factors_per_cell();
     out += &match l {
         Language::Wgsl => format!(
-            "    var table = array<f32, {n}>({});\n    let k = table[ih * {nd}u + id];\n",
+            "    var table = array<f32, {n}>({});\n    let cell = (ih * {nd}u + id) * {per_cell}u;\n",
             values.join(", ")
         ),
         Language::Glsl => format!(
-            "    float table[{n}] = float[{n}]({});\n    float k = table[ih * {nd}u + id];\n",
+            "    float table[{n}] = float[{n}]({});\n    uint cell = (ih * {nd}u + id) * {per_cell}u;\n",
             values.join(", ")
         ),
     };
-    out += &match b.mode {
-        ColourMode::Rgb => format!("    return {v3}(k, k, k);\n}}\n\n"),
-        ColourMode::LuminanceChroma => format!("    return {v3}(k, 1.0, 1.0);\n}}\n\n"),
+    out += &match (shell.colour, b.mode) {
+        (ShellColour::PerFunction, _) => {
+            format!("    return {v3}(table[cell], table[cell + 1u], table[cell + 2u]);\n}}\n\n")
+        }
+        (ShellColour::Luminance, ColourMode::Rgb) => {
+            format!("    return {v3}(table[cell], table[cell], table[cell]);\n}}\n\n")
+        }
+        (ShellColour::Luminance, ColourMode::LuminanceChroma) => {
+            format!("    return {v3}(table[cell], 1.0, 1.0);\n}}\n\n")
+        }
     };
     out
 }

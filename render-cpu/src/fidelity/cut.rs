@@ -4,7 +4,7 @@
 
 use super::{RenderErrors, SampleValues, Validator, RENDER_CHECK};
 use crate::RenderError;
-use brdf::{Brdf, FittedBrdf, ShellFactor, SHELL_BIN_CHOICES};
+use brdf::{Brdf, FittedBrdf, ShellFactor, ShellLayout, SHELL_BIN_CHOICES, SHELL_CHOICES};
 use serde::Serialize;
 use std::sync::Arc;
 
@@ -44,8 +44,8 @@ pub struct CutTried {
     /// Whether a shell factor ([`brdf::ShellFactor`]) multiplies the fit
     /// beyond the cut.
     pub shell: bool,
-    /// Its `theta_h` x `theta_d` bins, with a shell factor.
-    pub shell_bins: Option<[usize; 2]>,
+    /// Its cells, with a shell factor.
+    pub shell_layout: Option<ShellLayout>,
     /// Bytes of the evaluation (f32), the shell factor included.
     pub bytes: usize,
     /// The worse scene's mean CIEDE2000.
@@ -55,8 +55,8 @@ pub struct CutTried {
 impl CutTried {
     fn label(&self) -> String {
         let cut = self.cut.map_or("none".to_string(), |c| format!("{c}"));
-        match self.shell_bins {
-            Some([nh, nd]) => format!("{cut}+shell {nh}x{nd}"),
+        match self.shell_layout {
+            Some(layout) => format!("{cut}+shell {}", layout.label()),
             None => cut,
         }
     }
@@ -73,10 +73,9 @@ impl CutChoice {
         let own = self.fitted.reduction.max_elevation_deg;
         let chosen = match (self.cut, self.fitted.shell.as_ref()) {
             (Some(c), Some(shell)) if self.shell => format!(
-                "{c} degrees and a shell factor of {} bytes ({} x {} cells)",
+                "{c} degrees and a shell factor of {} bytes ({})",
                 shell.byte_size_f32(),
-                shell.n_theta_h,
-                shell.n_theta_d
+                shell.layout().describe()
             ),
             (Some(c), _) => format!("{c} degrees"),
             (None, Some(_)) => {
@@ -86,7 +85,7 @@ impl CutChoice {
             (None, _) => "none, the whole hemisphere".to_string(),
         };
         format!(
-            "evaluation cut chosen by the validation renders: {chosen} (worse scene's mean CIEDE2000 and bytes by cut; +shell: with a shell factor of theta_h x theta_d cells beyond it: {})",
+            "evaluation cut chosen by the validation renders: {chosen} (worse scene's mean CIEDE2000 and bytes by cut; +shell: with a shell factor of theta_h x theta_d cells beyond it, cos: theta_d bins uniform in cosine, colour: a factor per function: {})",
             tried.join(", ")
         )
     }
@@ -121,7 +120,9 @@ fn preferred(tried: &[CutTried], target_de: Option<f64>, max_bytes: Option<usize
 /// A fit over the whole hemisphere (its reduction has no elevation cut)
 /// evaluated within the cut among none and [`EVALUATION_CUTS`], each
 /// without and with a shell factor fitted to `table` beyond it
-/// ([`brdf::ShellFactor`], at each of [`SHELL_BIN_CHOICES`]), measured on
+/// ([`brdf::ShellFactor`], in each layout of [`SHELL_BIN_CHOICES`], and
+/// in the other layouts of [`SHELL_CHOICES`] at the cut that did best with
+/// those), measured on
 /// the validation renders. The evaluation kept has the lowest worse-scene
 /// mean CIEDE2000 or, given `target_de`, the fewest bytes among those that
 /// reach it (the smallest representation is what a target asks for); given
@@ -150,7 +151,7 @@ pub fn choose_evaluation_cut(
     let mut tried = vec![CutTried {
         cut: None,
         shell: fitted.shell.is_some(),
-        shell_bins: fitted.shell.as_ref().map(|s| [s.n_theta_h, s.n_theta_d]),
+        shell_layout: fitted.shell.as_ref().map(ShellFactor::layout),
         bytes: fitted.byte_size_f32(),
         worst_mean_de: errors.worst_mean(),
     }];
@@ -179,20 +180,54 @@ pub fn choose_evaluation_cut(
     let base_fit = fitted.clone();
     let mut bases: [Option<SampleValues>; 2] = [None, None];
     let mut measured = vec![(fitted, errors)];
-    for (degrees, plain, measure_plain) in within {
-        let mut variants = Vec::new();
-        if measure_plain {
-            variants.push((plain.clone(), None));
-        }
-        for bins in SHELL_BIN_CHOICES {
-            let shell = ShellFactor::fit(table, &plain, bins).map_err(material_error)?;
-            let shelled = plain.clone().with_shell(shell).map_err(material_error)?;
-            variants.push((shelled, Some(bins)));
-        }
-        let cos_inside = (degrees - INSIDE_MARGIN_DEG).to_radians().cos();
-        let inside =
-            move |wi: brdf::Vec3, wo: brdf::Vec3| wi[2] >= cos_inside && wo[2] >= cos_inside;
-        for (variant, shell_bins) in variants {
+    // With several cuts, the layouts added to the luminance factors of
+    // SHELL_BIN_CHOICES are measured at the cut whose evaluations did best
+    // only: each cut costs a validation per layout.
+    let staged = within.len() > 1;
+    let (first, more) = SHELL_CHOICES.split_at(if staged {
+        SHELL_BIN_CHOICES.len()
+    } else {
+        SHELL_CHOICES.len()
+    });
+    for stage in 0..2 {
+        let jobs: Vec<(f64, &FittedBrdf, Option<ShellLayout>)> = if stage == 0 {
+            within
+                .iter()
+                .flat_map(|(degrees, plain, measure_plain)| {
+                    let layouts = first.iter().map(|&l| Some(l));
+                    measure_plain
+                        .then_some(None)
+                        .into_iter()
+                        .chain(layouts)
+                        .map(move |l| (*degrees, plain, l))
+                })
+                .collect()
+        } else {
+            let best = tried
+                .iter()
+                .filter(|t| t.cut.is_some())
+                .min_by(|a, b| a.worst_mean_de.total_cmp(&b.worst_mean_de))
+                .and_then(|t| t.cut);
+            within
+                .iter()
+                .filter(|(degrees, _, _)| Some(*degrees) == best)
+                .flat_map(|(degrees, plain, _)| {
+                    more.iter().map(move |&l| (*degrees, plain, Some(l)))
+                })
+                .collect()
+        };
+        for (degrees, plain, shell_layout) in jobs {
+            let variant = match shell_layout {
+                Some(layout) => {
+                    let shell =
+                        ShellFactor::fit_layout(table, plain, layout).map_err(material_error)?;
+                    plain.clone().with_shell(shell).map_err(material_error)?
+                }
+                None => plain.clone(),
+            };
+            let cos_inside = (degrees - INSIDE_MARGIN_DEG).to_radians().cos();
+            let inside =
+                move |wi: brdf::Vec3, wo: brdf::Vec3| wi[2] >= cos_inside && wo[2] >= cos_inside;
             let material = crate::FitInDomain::new(variant.clone());
             let path = material.uses_f32();
             let base = bases[usize::from(path)].get_or_insert_with(|| {
@@ -203,8 +238,8 @@ pub fn choose_evaluation_cut(
             let errors = validator.measure_reusing(Arc::new(material), base, &inside)?;
             tried.push(CutTried {
                 cut: Some(degrees),
-                shell: shell_bins.is_some(),
-                shell_bins,
+                shell: shell_layout.is_some(),
+                shell_layout,
                 bytes: variant.byte_size_f32(),
                 worst_mean_de: errors.worst_mean(),
             });
@@ -341,17 +376,34 @@ mod tests {
             None,
         )
         .unwrap();
-        // None and every cut measured, without and with each shell factor;
-        // the chosen one has the lowest error.
-        let shells = SHELL_BIN_CHOICES.len();
-        assert_eq!(choice.tried.len(), 1 + (1 + shells) * EVALUATION_CUTS.len());
+        // None and every cut measured, without and with each shell factor
+        // on uniform luminance bins, and the other layouts at the best of
+        // those cuts; the chosen one has the lowest error.
+        let (first, more) = (
+            SHELL_BIN_CHOICES.len(),
+            SHELL_CHOICES.len() - SHELL_BIN_CHOICES.len(),
+        );
+        let cuts = EVALUATION_CUTS.len();
+        assert_eq!(choice.tried.len(), 1 + (1 + first) * cuts + more);
         assert_eq!(choice.shell, choice.fitted.shell.is_some());
         assert_eq!(
             choice.tried.iter().filter(|t| t.shell).count(),
-            shells * EVALUATION_CUTS.len()
+            first * cuts + more
         );
+        let stage_one = &choice.tried[1..1 + (1 + first) * cuts];
+        let best_cut = stage_one
+            .iter()
+            .min_by(|a, b| a.worst_mean_de.total_cmp(&b.worst_mean_de))
+            .unwrap()
+            .cut;
+        for t in &choice.tried[1 + (1 + first) * cuts..] {
+            assert_eq!(t.cut, best_cut);
+            assert!(!SHELL_BIN_CHOICES
+                .iter()
+                .any(|&bins| t.shell_layout == Some(ShellLayout::luminance(bins))));
+        }
         for t in &choice.tried {
-            let shell_bytes = t.shell_bins.map_or(0, |[nh, nd]| 4 * nh * nd);
+            let shell_bytes = t.shell_layout.map_or(0, |l| l.byte_size_f32());
             assert_eq!(t.bytes, fitted.byte_size_f32() + shell_bytes);
         }
         assert!((choice.tried[0].worst_mean_de - whole).abs() < 1e-12);
@@ -419,7 +471,8 @@ mod tests {
             .unwrap();
         let kept =
             choose_evaluation_cut(&validator, &glossy, within.clone(), errors, None, None).unwrap();
-        assert_eq!(kept.tried.len(), 1 + shells);
+        // Every layout at its own cut.
+        assert_eq!(kept.tried.len(), 1 + SHELL_CHOICES.len());
         for t in &kept.tried[1..] {
             assert_eq!((t.cut, t.shell), (Some(75.0), true));
         }
@@ -453,7 +506,7 @@ mod tests {
         CutTried {
             cut: Some(70.0),
             shell: true,
-            shell_bins: Some([4, 4]),
+            shell_layout: Some(ShellLayout::luminance([4, 4])),
             bytes,
             worst_mean_de,
         }

@@ -420,6 +420,7 @@ pub fn fit_to_target(
         fitted_within: attempt.fitted_within,
         widened: attempt.widened,
         shell_bytes: fitted.shell.as_ref().map(brdf::ShellFactor::byte_size_f32),
+        shell_layout: fitted.shell.as_ref().map(brdf::ShellFactor::layout),
         scenes: errors.scenes.clone(),
         noise: validator.noise.clone(),
         tried,

@@ -112,6 +112,9 @@ pub struct TargetReport {
     /// Bytes of the shell factor beyond that cut ([`brdf::ShellFactor`]),
     /// included in `bytes`, when the renders chose one.
     pub shell_bytes: Option<usize>,
+    /// Its cells, when the renders chose one.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub shell_layout: Option<brdf::ShellLayout>,
     /// Its render errors, lights first.
     pub scenes: Vec<SceneError>,
     /// The table against itself with another seed (noise of the comparison).
@@ -159,10 +162,15 @@ impl std::fmt::Display for TargetReport {
                 "  evaluated within {c} degrees of the normal (directions beyond moved onto the cut; chosen by the validation renders)"
             )?;
         }
-        if let Some(b) = self.shell_bytes {
+        if let (Some(b), Some(layout)) = (self.shell_bytes, self.shell_layout) {
+            let what = match layout.colour {
+                brdf::ShellColour::Luminance => "the table's luminance",
+                brdf::ShellColour::PerFunction => "the table's energy in each RGB channel",
+            };
             writeln!(
                 f,
-                "  beyond the cut, a shell factor of {b} bytes scales the fit to the table's luminance, cell by cell of theta_h x theta_d (chosen by the validation renders)"
+                "  beyond the cut, a shell factor of {b} bytes ({}) scales the fit to {what}, cell by cell of theta_h x theta_d (chosen by the validation renders)",
+                layout.describe()
             )?;
         }
         for (k, scene) in ValidationScene::ALL.iter().enumerate() {
