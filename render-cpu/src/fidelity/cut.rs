@@ -127,7 +127,8 @@ fn preferred(tried: &[CutTried], target_de: Option<f64>, max_bytes: Option<usize
 /// mean CIEDE2000 or, given `target_de`, the fewest bytes among those that
 /// reach it (the smallest representation is what a target asks for); given
 /// `max_bytes`, only evaluations within it are kept (a shell factor that
-/// would pass it is not), unless the fit alone passes it. The
+/// would pass it is not, and beside a fit with its own cut it is not
+/// measured either), unless the fit alone passes it. The
 /// functions are not fitted again: directions beyond the cut are moved onto
 /// it ([`brdf::clamp_elevation`]), so grazing views show the fit's value at
 /// the cut instead of its loosely bounded grazing cells (a silhouette under
@@ -217,6 +218,16 @@ pub fn choose_evaluation_cut(
                 .collect()
         };
         for (degrees, plain, shell_layout) in jobs {
+            // With one cut, a layout that passes the byte budget beside a
+            // fit within it can never be kept (`preferred` keeps
+            // evaluations within the budget when there is one): it is not
+            // measured. With several, every layout is measured, since the
+            // cut whose evaluations did best chooses the second stage's.
+            let shell_bytes = shell_layout.map_or(0, |l| l.byte_size_f32());
+            let fit_bytes = plain.byte_size_f32();
+            if !staged && max_bytes.is_some_and(|m| fit_bytes <= m && fit_bytes + shell_bytes > m) {
+                continue;
+            }
             let variant = match shell_layout {
                 Some(layout) => {
                     let shell =
@@ -469,10 +480,44 @@ mod tests {
         let errors = validator
             .measure(Arc::new(crate::FitInDomain::new(within.clone())))
             .unwrap();
-        let kept =
-            choose_evaluation_cut(&validator, &glossy, within.clone(), errors, None, None).unwrap();
+        let kept = choose_evaluation_cut(
+            &validator,
+            &glossy,
+            within.clone(),
+            errors.clone(),
+            None,
+            None,
+        )
+        .unwrap();
         // Every layout at its own cut.
         assert_eq!(kept.tried.len(), 1 + SHELL_CHOICES.len());
+        // Under a byte budget 48 bytes above the fit, the layouts that
+        // would pass it are not measured, and the choice is the best of
+        // the full measurement within the budget.
+        let budget = within.byte_size_f32() + 48;
+        let budgeted = choose_evaluation_cut(
+            &validator,
+            &glossy,
+            within.clone(),
+            errors,
+            None,
+            Some(budget),
+        )
+        .unwrap();
+        let fits = |t: &&CutTried| t.bytes <= budget;
+        let affordable: Vec<&CutTried> = kept.tried.iter().filter(fits).collect();
+        assert_eq!(
+            affordable.len(),
+            3,
+            "the fit, 1 x 4 cos and 1 x 4 cos colour"
+        );
+        assert_eq!(budgeted.tried.len(), affordable.len());
+        assert!(budgeted.tried.iter().all(|t| t.bytes <= budget));
+        let best = affordable
+            .iter()
+            .map(|t| t.worst_mean_de)
+            .fold(f64::INFINITY, f64::min);
+        assert!((budgeted.errors.worst_mean() - best).abs() < 1e-12);
         for t in &kept.tried[1..] {
             assert_eq!((t.cut, t.shell), (Some(75.0), true));
         }
