@@ -191,32 +191,7 @@ pub fn choose_evaluation_cut(
         SHELL_CHOICES.len()
     });
     for stage in 0..2 {
-        let jobs: Vec<(f64, &FittedBrdf, Option<ShellLayout>)> = if stage == 0 {
-            within
-                .iter()
-                .flat_map(|(degrees, plain, measure_plain)| {
-                    let layouts = first.iter().map(|&l| Some(l));
-                    measure_plain
-                        .then_some(None)
-                        .into_iter()
-                        .chain(layouts)
-                        .map(move |l| (*degrees, plain, l))
-                })
-                .collect()
-        } else {
-            let best = tried
-                .iter()
-                .filter(|t| t.cut.is_some())
-                .min_by(|a, b| a.worst_mean_de.total_cmp(&b.worst_mean_de))
-                .and_then(|t| t.cut);
-            within
-                .iter()
-                .filter(|(degrees, _, _)| Some(*degrees) == best)
-                .flat_map(|(degrees, plain, _)| {
-                    more.iter().map(move |&l| (*degrees, plain, Some(l)))
-                })
-                .collect()
-        };
+        let jobs = stage_jobs(stage, &within, (first, more), &tried);
         for (degrees, plain, shell_layout) in jobs {
             // With one cut, a layout that passes the byte budget beside a
             // fit within it can never be kept (`preferred` keeps
@@ -266,6 +241,41 @@ pub fn choose_evaluation_cut(
         errors,
         tried,
     })
+}
+
+/// The evaluations of one stage of [`choose_evaluation_cut`]: at stage 0
+/// each cut of `within`, without a shell factor where it is still to be
+/// measured and with each of the first layouts; at stage 1 the other
+/// layouts at the cut whose evaluations in `tried` did best.
+fn stage_jobs<'a>(
+    stage: usize,
+    within: &'a [(f64, FittedBrdf, bool)],
+    (first, more): (&'a [ShellLayout], &'a [ShellLayout]),
+    tried: &[CutTried],
+) -> Vec<(f64, &'a FittedBrdf, Option<ShellLayout>)> {
+    if stage == 0 {
+        return within
+            .iter()
+            .flat_map(|(degrees, plain, measure_plain)| {
+                let layouts = first.iter().map(|&l| Some(l));
+                measure_plain
+                    .then_some(None)
+                    .into_iter()
+                    .chain(layouts)
+                    .map(move |l| (*degrees, plain, l))
+            })
+            .collect();
+    }
+    let best = tried
+        .iter()
+        .filter(|t| t.cut.is_some())
+        .min_by(|a, b| a.worst_mean_de.total_cmp(&b.worst_mean_de))
+        .and_then(|t| t.cut);
+    within
+        .iter()
+        .filter(|(degrees, _, _)| Some(*degrees) == best)
+        .flat_map(|(degrees, plain, _)| more.iter().map(move |&l| (*degrees, plain, Some(l))))
+        .collect()
 }
 
 /// [`super::render_check`] with the evaluation cut chosen
