@@ -141,6 +141,43 @@ impl Brdf for DownsampledTable {
     }
 }
 
+/// A material seen through the 2-D reduction (`phi_d = pi/2`): at a pair
+/// whose elevations are both within `within_deg`, its value at the pair's
+/// `(theta_h, theta_d)` on that slice, which is all a 2-D fit sees; beyond,
+/// its own value. Rendered, it is about the least a 2-D fit evaluated within
+/// that cut can lose (a fit adds its own error, and a shell factor beyond
+/// the cut at best matches the material there), so a target it misses is
+/// out of the slice's reach.
+pub struct SliceView<B> {
+    material: B,
+    cos_within: f64,
+}
+
+impl<B: Brdf> SliceView<B> {
+    /// `material` seen through the slice within `within_deg` of the normal.
+    pub fn new(material: B, within_deg: f64) -> Self {
+        Self {
+            material,
+            cos_within: within_deg.to_radians().cos(),
+        }
+    }
+}
+
+impl<B: Brdf> Brdf for SliceView<B> {
+    fn eval(&self, wi: Vec3, wo: Vec3) -> [f64; 3] {
+        if wi[2] < self.cos_within || wo[2] < self.cos_within {
+            return self.material.eval(wi, wo);
+        }
+        let hd = HalfDiff::from_directions(wi, wo);
+        let (si, so) = HalfDiff::pair_at([hd.theta_h, hd.theta_d, PI / 2.0]);
+        self.material.eval(si, so)
+    }
+
+    fn name(&self) -> String {
+        format!("{} on the phi_d = pi/2 slice", self.material.name())
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -170,5 +207,43 @@ mod tests {
         for c in 0..3 {
             assert!((v[c] - m.albedo[c] / PI).abs() < 1e-6);
         }
+    }
+
+    /// Within the cut, the view takes the slice's value at the pair's
+    /// `(theta_h, theta_d)`; beyond it, the material's own.
+    #[test]
+    fn the_slice_view_ignores_phi_d_within_the_cut_only() {
+        // Its shadowing term depends on each direction's elevation, so on
+        // phi_d at fixed (theta_h, theta_d).
+        let m = crate::CookTorranceGgx {
+            kd: [0.1, 0.1, 0.1],
+            f0: [0.04, 0.05, 0.06],
+            alpha: 0.3,
+        };
+        let view = SliceView::new(m, 70.0);
+        let at = |th: f64, td: f64, pd: f64| HalfDiff::pair_at([th, td, pd]);
+        // Two pairs with the same (theta_h, theta_d) and other phi_d.
+        let (a, b) = (at(0.3, 0.4, 0.2), at(0.3, 0.4, 1.3));
+        assert!(a.0[2] > 0.5 && a.1[2] > 0.5 && b.0[2] > 0.5 && b.1[2] > 0.5);
+        let (va, vb) = (m.eval(a.0, a.1), m.eval(b.0, b.1));
+        assert!((va[0] - vb[0]).abs() > 1e-3 * va[0], "{va:?} {vb:?}");
+        let on_slice = at(0.3, 0.4, PI / 2.0);
+        for (wi, wo) in [a, b] {
+            let v = view.eval(wi, wo);
+            let s = m.eval(on_slice.0, on_slice.1);
+            for c in 0..3 {
+                assert!((v[c] - s[c]).abs() <= 1e-9 * s[c].abs().max(1e-12));
+            }
+        }
+        // Beyond 70 degrees the material's own value.
+        let grazing = (
+            from_spherical(80f64.to_radians(), 0.0),
+            from_spherical(0.2, 2.0),
+        );
+        let bits = |v: [f64; 3]| v.map(f64::to_bits);
+        assert_eq!(
+            bits(view.eval(grazing.0, grazing.1)),
+            bits(m.eval(grazing.0, grazing.1))
+        );
     }
 }

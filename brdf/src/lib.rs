@@ -52,7 +52,7 @@ pub use design::{
     estimate_noise, ChannelBounds, NoiseEstimate, PerceptualBounds, DEFAULT_PEAK_CAP,
     LIGHT_FLOOR_PER_TOL,
 };
-pub use downsample::DownsampledTable;
+pub use downsample::{DownsampledTable, SliceView};
 pub use error::{write_atomic, BrdfError};
 pub use export::alta::{AltaChannel, AltaRational};
 pub use export::{compact, compact_batch, shader};

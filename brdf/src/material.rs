@@ -38,14 +38,22 @@ pub trait Brdf: Send + Sync {
     fn name(&self) -> String;
 }
 
-impl<T: Brdf + ?Sized> Brdf for Box<T> {
-    fn eval(&self, wi: Vec3, wo: Vec3) -> [f64; 3] {
-        (**self).eval(wi, wo)
-    }
-    fn eval_incident(&self, wi: &[Vec3], wo: Vec3, out: &mut [[f64; 3]]) {
-        (**self).eval_incident(wi, wo, out)
-    }
-    fn name(&self) -> String {
-        (**self).name()
-    }
+/// A BRDF behind a `Box` or an `Arc` is a BRDF: tables are shared
+/// between scenes and the wrappers that view them.
+macro_rules! forward_brdf {
+    ($($pointer:ty),*) => {$(
+        impl<T: Brdf + ?Sized> Brdf for $pointer {
+            fn eval(&self, wi: Vec3, wo: Vec3) -> [f64; 3] {
+                (**self).eval(wi, wo)
+            }
+            fn eval_incident(&self, wi: &[Vec3], wo: Vec3, out: &mut [[f64; 3]]) {
+                (**self).eval_incident(wi, wo, out)
+            }
+            fn name(&self) -> String {
+                (**self).name()
+            }
+        }
+    )*};
 }
+
+forward_brdf!(Box<T>, std::sync::Arc<T>);

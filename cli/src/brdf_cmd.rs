@@ -19,8 +19,8 @@ pub struct FitArgs {
     #[arg(long)]
     format: String,
     /// 2 (rho(theta_h, theta_d)) or 3 (theta_h, theta_d, phi_d). Default:
-    /// 2, and with `--target-de` the slice first and 3-D when the slice
-    /// cannot reach the target.
+    /// 2, and with `--target-de` the slice and the 3-D grid (the slice
+    /// first when the table seen through it reaches the target).
     #[arg(long)]
     dims: Option<usize>,
     /// 2-D only: use the spread over phi_d as the interval instead of the phi_d = pi/2 slice.
@@ -84,8 +84,9 @@ pub struct FitArgs {
     /// Fit to a perceptual budget instead of fixed intervals: the smallest
     /// perceptual fit (whole hemisphere) whose validation renders (a sphere
     /// under three directional lights and under a sky) reach this mean
-    /// CIEDE2000 against the table; the 2-D slice first, then 3-D (grid
-    /// from `--resolution`, else 16^3) unless `--dims` fixes one;
+    /// CIEDE2000 against the table; the 2-D slice and 3-D (grid from
+    /// `--resolution`, else 16^3) unless `--dims` fixes one, the slice
+    /// first only when the table seen through it reaches the target;
     /// luminance-chroma, and RGB on the first reduction too when the
     /// chroma ratios limit it, unless `--colour` fixes one. MERL and RGL
     /// files only.
@@ -361,7 +362,7 @@ fn run_fit_target(
         bail!("--target-de renders the table: use --format merl or rgl");
     }
     // The 3-D grid (or, with `--dims 2`, the slice alone) over the whole
-    // hemisphere; in the automatic mode the slice is tried first.
+    // hemisphere; in the automatic mode the slice is tried too.
     let slice_only = args.dims == Some(2);
     let mut reduction = reduction(args)?
         .with_kind(if slice_only {

@@ -43,7 +43,7 @@ pub use target::{
     fit_to_target, on_target_grid, target_settings, TargetColour, TargetReduction, TARGET_GRID_3D,
     TARGET_MAX_COEFFS, TARGET_SLICE, TARGET_TIME_BUDGET_S,
 };
-pub use target_report::{GridFloor, TargetAttempt, TargetBudget, TargetReport};
+pub use target_report::{GridFloor, SliceFloor, TargetAttempt, TargetBudget, TargetReport};
 
 /// The two validation scenes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]

@@ -143,21 +143,35 @@ fn glossy_target_fit_in(
     max_bytes: Option<usize>,
     colour: (brdf::ColourMode, TargetColour),
 ) -> Result<render_cpu::fidelity::TargetReport, render_cpu::RenderError> {
-    use brdf::{BlinnPhong, BrdfFitSettings, PerceptualBounds, Reduction, ReductionKind};
-    use render_cpu::fidelity::{fit_to_target, TargetBudget, TargetReduction, ValidationSettings};
-    use std::sync::Arc;
-    let glossy: Arc<dyn brdf::Brdf> = Arc::new(BlinnPhong {
+    let glossy = std::sync::Arc::new(brdf::BlinnPhong {
         kd: [0.2, 0.3, 0.1],
         ks: [0.3, 0.3, 0.3],
         exponent: 30.0,
     });
-    let reduction = Reduction::default()
+    let fixed = render_cpu::fidelity::TargetReduction::Fixed;
+    target_fit(glossy, target, (bins, max_coeffs, max_bytes), colour, fixed)
+}
+
+/// A target fit of `material` from `grid`'s 3-D grid (bins, coefficients per
+/// function and byte budget), in `colour`, with `reduction`, validated on
+/// tiny renders.
+fn target_fit(
+    material: std::sync::Arc<dyn brdf::Brdf>,
+    target: f64,
+    grid: ([usize; 3], usize, Option<usize>),
+    colour: (brdf::ColourMode, TargetColour),
+    reduction: render_cpu::fidelity::TargetReduction,
+) -> Result<render_cpu::fidelity::TargetReport, render_cpu::RenderError> {
+    use brdf::{BrdfFitSettings, PerceptualBounds, Reduction, ReductionKind};
+    use render_cpu::fidelity::{fit_to_target, TargetBudget, ValidationSettings};
+    let (bins, max_coeffs, max_bytes) = grid;
+    let grid = Reduction::default()
         .with_kind(ReductionKind::Full3d)
         .with_resolution(bins[0], bins[1])
         .with_phi_resolution(bins[2])
         .whole_hemisphere();
     let settings = BrdfFitSettings::default()
-        .with_reduction(reduction)
+        .with_reduction(grid)
         .with_baselines(false)
         .with_colour_mode(colour.0)
         .with_design(PerceptualBounds::default())
@@ -173,10 +187,10 @@ fn glossy_target_fit_in(
         seed: 1,
     };
     fit_to_target(
-        glossy,
+        material,
         target,
         &settings,
-        TargetReduction::Fixed,
+        reduction,
         colour.1,
         validation,
         TargetBudget::seconds(60.0).with_bytes(max_bytes),
@@ -383,4 +397,60 @@ fn a_missed_target_is_searched_in_both_colour_modes() {
     assert!(reached.reached, "{reached}");
     assert_eq!(modes(&reached, ColourMode::LuminanceChroma), 0, "{reached}");
     assert_eq!(reached.colour, ColourMode::Rgb);
+}
+
+/// A target fit of `material` with the reduction left to the search (the
+/// 2-D slice or the 3-D grid), in luminance-chroma.
+fn auto_reduction_report(
+    material: std::sync::Arc<dyn brdf::Brdf>,
+    target: f64,
+) -> render_cpu::fidelity::TargetReport {
+    let lc = (ColourMode::LuminanceChroma, TargetColour::Fixed);
+    let auto = render_cpu::fidelity::TargetReduction::Auto;
+    target_fit(material, target, ([6, 6, 4], 30, None), lc, auto).unwrap()
+}
+
+/// The slice is searched first when the table seen through it reaches the
+/// target; otherwise the 3-D fits come first, and the slice follows only
+/// when their best renders above what the table seen through it does.
+#[test]
+fn the_slice_is_searched_first_only_when_its_floor_reaches_the_target() {
+    // Blinn-Phong depends on theta_h alone: the slice loses nothing.
+    let blinn: std::sync::Arc<dyn brdf::Brdf> = std::sync::Arc::new(brdf::BlinnPhong {
+        kd: [0.2, 0.3, 0.1],
+        ks: [0.3, 0.3, 0.3],
+        exponent: 30.0,
+    });
+    let easy = auto_reduction_report(blinn, 3.0);
+    let floor = easy
+        .slice_floor
+        .expect("an automatic reduction measures it");
+    assert!(floor.worst_mean_de <= 3.0 && floor.searched, "{easy}");
+    assert_eq!(easy.tried[0].dims, 2, "{easy}");
+    assert!(easy.to_string().contains("the slice was searched first"));
+    // GGX's shadowing depends on phi_d: a target below the slice's floor
+    // starts with the 3-D fits.
+    let ggx: std::sync::Arc<dyn brdf::Brdf> = std::sync::Arc::new(brdf::CookTorranceGgx {
+        kd: [0.1, 0.15, 0.2],
+        f0: [0.5, 0.5, 0.5],
+        alpha: 0.4,
+    });
+    let hard = auto_reduction_report(ggx, 1e-3);
+    let floor = hard
+        .slice_floor
+        .expect("an automatic reduction measures it");
+    assert!(floor.worst_mean_de > 1e-3, "{hard}");
+    assert_eq!(hard.tried[0].dims, 3, "{hard}");
+    let best_3d = hard
+        .tried
+        .iter()
+        .filter(|a| a.dims == 3)
+        .filter_map(|a| a.result.map(|(_, worst)| worst))
+        .fold(f64::INFINITY, f64::min);
+    let slice_tried = hard.tried.iter().any(|a| a.dims == 2);
+    assert_eq!(slice_tried, floor.searched, "{hard}");
+    assert_eq!(floor.searched, best_3d > floor.worst_mean_de, "{hard}");
+    assert!(hard
+        .to_string()
+        .contains("the table seen through the 2-D slice"));
 }

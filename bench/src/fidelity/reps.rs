@@ -131,8 +131,8 @@ pub(super) fn rational_reps(table: &Arc<dyn Brdf>, plan: &Plan) -> Vec<Attempt> 
 
 /// The fit `ratfit fit FILE --target-de D [--max-bytes B]` returns (its
 /// settings: luminance-chroma, perceptual intervals over the whole
-/// hemisphere, the slice first (also in RGB when the chroma ratios limit
-/// it) and then the 16^3 grid, chosen on the
+/// hemisphere, the slice (also in RGB when the chroma ratios limit it)
+/// and the 16^3 grid in the order of `fit_to_target`, chosen on the
 /// default validation renders, 96 x 96 with 256 sky samples), described by
 /// its report.
 fn fit_target(

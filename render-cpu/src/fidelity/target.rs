@@ -1,7 +1,7 @@
 //! [`fit_to_target`]: the smallest perceptual fit whose validation renders
 //! reach a mean CIEDE2000.
 
-use super::target_report::{GridFloor, TargetAttempt, TargetBudget, TargetReport};
+use super::target_report::{GridFloor, SliceFloor, TargetAttempt, TargetBudget, TargetReport};
 use super::target_search::{
     search_tolerances, split_budget_search, split_cap, Best, Goal, Measured, Search, LOOSER,
     TOLERANCES,
@@ -17,8 +17,11 @@ use std::time::Instant;
 #[serde(rename_all = "snake_case")]
 #[non_exhaustive]
 pub enum TargetReduction {
-    /// The 2-D `phi_d = pi/2` slice first (fewer bytes, fast fits); the
-    /// 3-D grid when the slice's fits stop improving above the target.
+    /// The 2-D `phi_d = pi/2` slice (fewer bytes, fast fits) and the 3-D
+    /// grid: the slice first when the table seen through it reaches the
+    /// target ([`super::SliceFloor`]), the 3-D grid when the slice's fits
+    /// stop improving above it; otherwise the 3-D grid first, and the
+    /// slice only when its fits render above that floor.
     Auto,
     /// The base settings' reduction only.
     Fixed,
@@ -30,8 +33,8 @@ pub enum TargetReduction {
 #[non_exhaustive]
 pub enum TargetColour {
     /// The base settings' mode; then, while the target is unreached and
-    /// the first reduction (the slice with [`TargetReduction::Auto`]) still
-    /// holds the best fit, the other mode on that reduction: RGB after
+    /// the first reduction (the slice with [`TargetReduction::Auto`], when
+    /// it was searched) holds the best fit, the other mode on that reduction: RGB after
     /// luminance-chroma when a chroma ratio, never the luminance, limited
     /// its fits (RGB channels need no ratio, whose intervals a coloured
     /// highlight widens most), luminance-chroma after RGB always.
@@ -126,6 +129,29 @@ pub fn target_settings(engine: rational_core::FitSettings) -> brdf::BrdfFitSetti
 /// them), so the same intervals cost fewer coefficients.
 pub const TARGET_CUT_DEGREES: f64 = 70.0;
 
+/// What [`run_searches`] found: why the fit was chosen, the fit, every
+/// attempt and the slice's floor.
+struct Searched {
+    why: String,
+    best: Best,
+    tried: Vec<TargetAttempt>,
+    slice_floor: Option<SliceFloor>,
+}
+
+/// The worse-scene error of the table seen through the 2-D slice
+/// ([`brdf::SliceView`]) within the smallest evaluation cut, the table
+/// itself beyond: about the least any slice fit renders at, since the
+/// slice's fits are evaluated within one of those cuts or none.
+fn slice_floor(goal: &Goal) -> Result<SliceFloor, RenderError> {
+    let within_deg = super::EVALUATION_CUTS.iter().copied().fold(90.0, f64::min);
+    let view = brdf::SliceView::new(goal.table.clone(), within_deg);
+    Ok(SliceFloor {
+        within_deg,
+        worst_mean_de: goal.validator.measure(Arc::new(view))?.worst_mean(),
+        searched: false,
+    })
+}
+
 /// The searches of [`fit_to_target`] in turn, each only while the target is
 /// unreached: the 2-D slice (with [`TargetReduction::Auto`]), `base`'s 3-D
 /// grid, and with a byte budget, the 3-D grid fitted within
@@ -133,15 +159,19 @@ pub const TARGET_CUT_DEGREES: f64 = 70.0;
 /// fits passed the budget at) and, when nothing is within the budget yet,
 /// the 3-D grid with the budget split evenly between the functions; with
 /// [`TargetColour::Auto`], the first reduction in the other colour mode
-/// comes before that last one (see [`TargetColour::Auto`]). Returns
-/// why the fit was chosen, the fit with the lowest worse-scene error (the
-/// earlier search between equal errors), and every attempt.
+/// comes before that last one (see [`TargetColour::Auto`]). The slice is
+/// searched first only when the table seen through it ([`SliceFloor`])
+/// reaches the target; otherwise after the 3-D searches, and only when
+/// their best fit renders above that floor (a slice fit could not do
+/// better). Returns why the fit was chosen, the fit with the lowest
+/// worse-scene error (the earlier search between equal errors), and every
+/// attempt.
 fn run_searches(
     goal: &Goal,
     base: &brdf::BrdfFitSettings,
     reduction: TargetReduction,
     colour: TargetColour,
-) -> Result<(String, Best, Vec<TargetAttempt>), RenderError> {
+) -> Result<Searched, RenderError> {
     let budget_s = goal.budget.seconds;
     let dims = base.reduction().dims();
     let mut searches: Vec<(String, Search)> = Vec::new();
@@ -152,8 +182,14 @@ fn run_searches(
         TargetColour::Auto => format!("{what} in {mode}"),
         TargetColour::Fixed => what.to_string(),
     };
-    // The first reduction searched: the other colour mode is tried on it.
-    let mut first = (base.clone(), 0);
+    let slice_name = in_mode("the 2-D slice", base.colour_mode());
+    // The first reduction searched and its index: the other colour mode is
+    // tried on it (not on a slice left unsearched).
+    let mut first = Some((base.clone(), 0));
+    // The slice's settings and floor, when its search waits for the 3-D
+    // fits.
+    let mut deferred = None;
+    let mut floor = None;
     if reduction == TargetReduction::Auto {
         let r = on_target_grid(
             base.reduction()
@@ -161,17 +197,29 @@ fn run_searches(
                 .whole_hemisphere(),
         );
         let settings = base.clone().with_reduction(r);
-        let s = search_tolerances(goal, &settings, &TOLERANCES[..3], 0.4 * budget_s, true)?;
-        searches.push((in_mode("the 2-D slice", base.colour_mode()), s));
-        first.0 = settings;
+        let f = slice_floor(goal)?;
+        if f.worst_mean_de <= goal.target_de {
+            let s = search_tolerances(goal, &settings, &TOLERANCES[..3], 0.4 * budget_s, true)?;
+            searches.push((slice_name.clone(), s));
+            floor = Some(SliceFloor {
+                searched: true,
+                ..f
+            });
+            first = Some((settings, 0));
+        } else {
+            floor = Some(f);
+            deferred = Some(settings);
+            first = None;
+        }
     }
-    let mut over_budget_at: Vec<f64> = Vec::new();
+    let (mut over_budget_at, mut best_at): (Vec<f64>, Option<f64>) = (Vec::new(), None);
     if !reached(&searches) {
         let s = search_tolerances(goal, base, &TOLERANCES, budget_s, false)?;
         over_budget_at = (s.tried.iter())
             .filter(|a| a.over_budget)
             .map(|a| a.rel_tol)
             .collect();
+        best_at = s.best.as_ref().map(|m| m.attempt.rel_tol);
         searches.push((
             in_mode(&format!("the {dims}-D fits"), base.colour_mode()),
             s,
@@ -180,7 +228,7 @@ fn run_searches(
     let whole_3d = base.reduction().kind == brdf::ReductionKind::Full3d
         && base.reduction().max_elevation_deg >= 90.0;
     if let (Some(_), true, false) = (goal.budget.bytes, whole_3d, reached(&searches)) {
-        let tolerances = within_cut_tolerances(&over_budget_at);
+        let tolerances = within_cut_tolerances(&over_budget_at, best_at);
         let settings = base
             .clone()
             .with_reduction(base.reduction().with_max_elevation(TARGET_CUT_DEGREES));
@@ -193,22 +241,23 @@ fn run_searches(
             s,
         ));
     }
-    if colour == TargetColour::Auto && !reached(&searches) {
-        // Only where the first reduction is still the best, and with a
-        // time allowance of its own: it runs after the budget's deadline
-        // on the slowest files.
-        let (settings, k) = first;
-        if lowest_error(&searches) == Some(k)
-            && other_colour_may_help(base.colour_mode(), &searches[k].1.tried)
-        {
-            let mode = other_colour(base.colour_mode());
-            let deadline = goal.start.elapsed().as_secs_f64() + OTHER_COLOUR_SHARE * budget_s;
-            let settings = settings.with_colour_mode(mode);
+    if let (Some(settings), Some(f)) = (deferred, floor.as_mut()) {
+        let best = lowest_error(&searches).map_or(f64::INFINITY, |k| searches[k].1.worst());
+        if best > f.worst_mean_de {
+            // Its own allowance, as the slice has when searched first.
+            let deadline = goal.start.elapsed().as_secs_f64() + 0.4 * budget_s;
             let s = search_tolerances(goal, &settings, &TOLERANCES[..3], deadline, true)?;
-            let what = match reduction {
-                TargetReduction::Auto => "the 2-D slice".to_string(),
-                TargetReduction::Fixed => format!("the {dims}-D fits"),
-            };
+            searches.push((slice_name, s));
+            f.searched = true;
+            first = Some((settings, searches.len() - 1));
+        }
+    }
+    if let (TargetColour::Auto, false, Some(first)) = (colour, reached(&searches), first) {
+        let what = match reduction {
+            TargetReduction::Auto => "the 2-D slice".to_string(),
+            TargetReduction::Fixed => format!("the {dims}-D fits"),
+        };
+        if let Some((mode, s)) = other_colour_search(goal, base.colour_mode(), &searches, first)? {
             searches.push((in_mode(&what, mode), s));
         }
     }
@@ -224,14 +273,50 @@ fn run_searches(
             s,
         ));
     }
+    Ok(conclude(searches, floor))
+}
+
+/// The search of `first`'s reduction (its settings and index in
+/// `searches`) in the other colour mode than `mode`: only where that
+/// reduction still holds the best fit and [`other_colour_may_help`], and
+/// with a time allowance of its own (it runs after the budget's deadline
+/// on the slowest files). Returns the mode and the search.
+fn other_colour_search(
+    goal: &Goal,
+    mode: brdf::ColourMode,
+    searches: &[(String, Search)],
+    (settings, k): (brdf::BrdfFitSettings, usize),
+) -> Result<Option<(brdf::ColourMode, Search)>, RenderError> {
+    if lowest_error(searches) != Some(k) || !other_colour_may_help(mode, &searches[k].1.tried) {
+        return Ok(None);
+    }
+    let other = other_colour(mode);
+    let deadline = goal.start.elapsed().as_secs_f64() + OTHER_COLOUR_SHARE * goal.budget.seconds;
+    let settings = settings.with_colour_mode(other);
+    let s = search_tolerances(goal, &settings, &TOLERANCES[..3], deadline, true)?;
+    Ok(Some((other, s)))
+}
+
+/// Every attempt of `searches`, and the best fit of the one with the
+/// lowest worse-scene error, with why it was chosen.
+fn conclude(mut searches: Vec<(String, Search)>, slice_floor: Option<SliceFloor>) -> Searched {
     let tried = searches
         .iter()
         .flat_map(|(_, s)| s.tried.iter().cloned())
         .collect();
     let k = lowest_error(&searches).unwrap_or(0);
     let why = why_chosen(&searches, k);
-    let best = searches.swap_remove(k).1.best;
-    Ok((why, best, tried))
+    let best = if searches.is_empty() {
+        None
+    } else {
+        searches.swap_remove(k).1.best
+    };
+    Searched {
+        why,
+        best,
+        tried,
+        slice_floor,
+    }
 }
 
 /// The search with the lowest worse-scene error (the earlier between equal
@@ -242,9 +327,14 @@ fn lowest_error(searches: &[(String, Search)]) -> Option<usize> {
 
 /// The tolerances of the search within [`TARGET_CUT_DEGREES`]: from the
 /// tightest at which the whole-hemisphere fits passed the byte budget
-/// (`over_budget_at`; the loosest of [`TOLERANCES`] when none did).
-fn within_cut_tolerances(over_budget_at: &[f64]) -> Vec<f64> {
-    let from = over_budget_at.iter().copied().fold(TOLERANCES[0], f64::min);
+/// (`over_budget_at`); when none did, from the tolerance of their best fit
+/// (`best_at`): fitted within the cut, a looser tolerance's fit has fewer
+/// bytes but renders no better than the whole hemisphere's at it, while the
+/// best one's subset of constraints is feasible with no more coefficients;
+/// the loosest of [`TOLERANCES`] when there is neither.
+fn within_cut_tolerances(over_budget_at: &[f64], best_at: Option<f64>) -> Vec<f64> {
+    let tightest_over = over_budget_at.iter().copied().reduce(f64::min);
+    let from = tightest_over.or(best_at).unwrap_or(TOLERANCES[0]);
     let tolerances: Vec<f64> = TOLERANCES
         .iter()
         .copied()
@@ -299,12 +389,17 @@ fn why_chosen(searches: &[(String, Search)], k: usize) -> String {
 /// instead of tighter ones; when still no fit is within it, the 3-D
 /// search runs again with the budget split evenly between the functions.
 ///
-/// With [`TargetReduction::Auto`], the 2-D slice (90 x 90 grid) is tried
-/// first, at most 40% of the budget: it costs fewer bytes, but its
+/// With [`TargetReduction::Auto`], the 2-D slice (90 x 90 grid) is also
+/// searched, for at most 40% of the budget: it costs fewer bytes, but its
 /// error stops falling at what the reduction itself loses (a tighter
-/// tolerance that improves by less than 10% ends it). The 3-D fits of
-/// `base` follow unless the slice reached the target; the report names
-/// the reduction chosen, why, and the slice's best error. With
+/// tolerance that improves by less than 10% ends it). What the table seen
+/// through the slice renders at ([`super::SliceFloor`], one validation)
+/// orders the searches: at or below the target the slice comes first and
+/// the 3-D fits of `base` follow unless it reached the target; above it
+/// no slice fit can reach the target, so the 3-D fits come first and the
+/// slice follows only when their best renders above that floor. The
+/// report names the reduction chosen, why, the floor and each search's
+/// best error. With
 /// [`TargetReduction::Fixed`], `base`'s reduction alone is used. With
 /// [`TargetColour::Auto`], the first reduction is then also searched in
 /// the other colour mode (RGB after luminance-chroma) when the target is
@@ -356,12 +451,17 @@ pub fn fit_to_target(
         budget,
         start,
     };
-    let (why, chosen, tried) = run_searches(&goal, base, reduction, colour)?;
+    let Searched {
+        why,
+        best,
+        tried,
+        slice_floor,
+    } = run_searches(&goal, base, reduction, colour)?;
     let Some(Measured {
         fitted,
         errors,
         attempt,
-    }) = chosen
+    }) = best
     else {
         let smallest = tried
             .iter()
@@ -409,6 +509,7 @@ pub fn fit_to_target(
         target_de,
         reached,
         grid_floor,
+        slice_floor,
         colour_split,
         dims: fitted.reduction.dims(),
         colour: fitted.mode,
@@ -448,6 +549,23 @@ mod tests {
             over_budget: false,
             fitted_within: None,
         }
+    }
+
+    /// The search within the cut starts where the whole-hemisphere fits
+    /// passed the byte budget, else at their best fit's tolerance.
+    #[test]
+    fn the_search_within_the_cut_starts_where_the_whole_hemisphere_stopped() {
+        assert_eq!(within_cut_tolerances(&[], None), TOLERANCES.to_vec());
+        assert_eq!(
+            within_cut_tolerances(&[0.08], Some(0.16)),
+            [0.08, 0.04, 0.02]
+        );
+        assert_eq!(within_cut_tolerances(&[], Some(0.04)), [0.04, 0.02]);
+        // Over the budget at 16% and best when loosened: from 16%.
+        let loosened = within_cut_tolerances(&[0.16], Some(0.16 * std::f64::consts::SQRT_2));
+        assert_eq!(loosened, TOLERANCES.to_vec());
+        // Best only when loosened for feasibility: every tolerance.
+        assert_eq!(within_cut_tolerances(&[], Some(0.32)), TOLERANCES.to_vec());
     }
 
     /// RGB follows luminance-chroma only where a chroma ratio, never the

@@ -38,6 +38,52 @@ pub struct TargetAttempt {
     pub fitted_within: Option<f64>,
 }
 
+impl std::fmt::Display for TargetAttempt {
+    /// One line: the reduction, colour mode and tolerance, then the bytes
+    /// and worse-scene error with the cut chosen, or the function with no
+    /// fit; the seconds spent.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self.result {
+            Some((bytes, worst)) => write!(
+                f,
+                "tried {}-D {}{} +-{}%{}: {bytes} bytes{}, worse mean CIEDE2000 {worst:.3}{} ({:.1} s)",
+                self.dims,
+                self.colour,
+                self.fitted_within
+                    .map_or(String::new(), |c| format!(" within {c} degrees")),
+                brdf::scale_text(self.rel_tol * 100.0),
+                match (self.widened > 1.0, self.limiting) {
+                    (true, Some(c)) =>
+                        format!(" (widened x{}: {c})", brdf::scale_text(self.widened)),
+                    (true, None) => format!(" (widened x{})", brdf::scale_text(self.widened)),
+                    (false, _) => String::new(),
+                },
+                if self.over_budget {
+                    " (over the byte budget)"
+                } else {
+                    ""
+                },
+                self.cut.map_or(String::new(), |c| format!(
+                    " evaluated within {c} degrees{}",
+                    if self.shell { " with a shell factor" } else { "" }
+                )),
+                self.seconds
+            ),
+            None => write!(
+                f,
+                "tried {}-D {}{} +-{}%: no fit within the coefficient budget{} ({:.1} s)",
+                self.dims,
+                self.colour,
+                self.fitted_within
+                    .map_or(String::new(), |c| format!(" within {c} degrees")),
+                brdf::scale_text(self.rel_tol * 100.0),
+                self.limiting.map_or(String::new(), |c| format!(" for {c}")),
+                self.seconds
+            ),
+        }
+    }
+}
+
 /// What [`super::fit_to_target`] may spend.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct TargetBudget {
@@ -81,6 +127,22 @@ pub struct GridFloor {
     pub worst_mean_de: f64,
 }
 
+/// The table seen through the 2-D slice ([`brdf::SliceView`]) within an
+/// elevation cut, the table itself beyond, rendered on the validation
+/// scenes: about the least a slice fit renders at. Above the target, the
+/// slice is searched only after the 3-D fits, and only when their best
+/// renders above it.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct SliceFloor {
+    /// The elevation cut (degrees) within which the slice stands for the
+    /// table.
+    pub within_deg: f64,
+    /// The larger mean CIEDE2000 of the two scenes.
+    pub worst_mean_de: f64,
+    /// Whether the slice's fits were searched.
+    pub searched: bool,
+}
+
 /// What [`super::fit_to_target`] reached.
 #[derive(Debug, Clone, Serialize)]
 pub struct TargetReport {
@@ -122,6 +184,10 @@ pub struct TargetReport {
     /// When the target is not reached by a 3-D fit: what the table itself
     /// renders at on the grid that fit samples (see [`GridFloor`]).
     pub grid_floor: Option<GridFloor>,
+    /// With the reduction chosen by the search: what the table seen through
+    /// the 2-D slice renders at, and whether the slice was searched (see
+    /// [`SliceFloor`]).
+    pub slice_floor: Option<SliceFloor>,
     /// When the target is not reached: the render error of the fit's
     /// luminance alone and of its colour alone ([`super::colour_split`]),
     /// which says which functions to improve.
@@ -196,48 +262,24 @@ impl std::fmt::Display for TargetReport {
                 }
             )?;
         }
+        if let Some(floor) = self.slice_floor {
+            writeln!(
+                f,
+                "  the table seen through the 2-D slice within {} degrees (the table beyond) renders at {:.3} (worse scene): {}",
+                floor.within_deg,
+                floor.worst_mean_de,
+                match (floor.worst_mean_de <= self.target_de, floor.searched) {
+                    (true, _) => "the slice was searched first",
+                    (false, true) => "above the target, so the slice was searched after the 3-D fits, whose best rendered above it",
+                    (false, false) => "above the target and the 3-D fits' best, so no slice fit was tried",
+                }
+            )?;
+        }
         if let Some(split) = &self.colour_split {
             writeln!(f, "  {}", split.describe("the fit"))?;
         }
         for a in &self.tried {
-            match a.result {
-                Some((bytes, worst)) => writeln!(
-                    f,
-                    "  tried {}-D {}{} +-{}%{}: {bytes} bytes{}, worse mean CIEDE2000 {worst:.3}{} ({:.1} s)",
-                    a.dims,
-                    a.colour,
-                    a.fitted_within
-                        .map_or(String::new(), |c| format!(" within {c} degrees")),
-                    brdf::scale_text(a.rel_tol * 100.0),
-                    match (a.widened > 1.0, a.limiting) {
-                        (true, Some(c)) =>
-                            format!(" (widened x{}: {c})", brdf::scale_text(a.widened)),
-                        (true, None) => format!(" (widened x{})", brdf::scale_text(a.widened)),
-                        (false, _) => String::new(),
-                    },
-                    if a.over_budget {
-                        " (over the byte budget)"
-                    } else {
-                        ""
-                    },
-                    a.cut.map_or(String::new(), |c| format!(
-                        " evaluated within {c} degrees{}",
-                        if a.shell { " with a shell factor" } else { "" }
-                    )),
-                    a.seconds
-                )?,
-                None => writeln!(
-                    f,
-                    "  tried {}-D {}{} +-{}%: no fit within the coefficient budget{} ({:.1} s)",
-                    a.dims,
-                    a.colour,
-                    a.fitted_within
-                        .map_or(String::new(), |c| format!(" within {c} degrees")),
-                    brdf::scale_text(a.rel_tol * 100.0),
-                    a.limiting.map_or(String::new(), |c| format!(" for {c}")),
-                    a.seconds
-                )?,
-            }
+            writeln!(f, "  {a}")?;
         }
         write!(f, "  {:.1} s", self.seconds)
     }

@@ -365,9 +365,9 @@ fn key_additions(
 
 /// A scene's `target_de` fit: luminance-chroma (and RGB when the chroma
 /// ratios limit the slice) over the whole hemisphere
-/// (or within `max_elevation`), the 2-D slice first and the grid of
-/// [`crate::fidelity::TARGET_GRID_3D`] when the slice cannot reach the
-/// target, validated on the renders `ratfit fit --target-de` uses
+/// (or within `max_elevation`), the 2-D slice and the grid of
+/// [`crate::fidelity::TARGET_GRID_3D`] in the order of
+/// [`crate::fidelity::fit_to_target`], validated on the renders `ratfit fit --target-de` uses
 /// ([`crate::fidelity::ValidationSettings::default`]) within `budget`
 /// ([`crate::fidelity::TARGET_TIME_BUDGET_S`]), so that both return the
 /// same fit; returns the fit and what it reached.
