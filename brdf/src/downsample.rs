@@ -146,8 +146,8 @@ impl Brdf for DownsampledTable {
 /// `(theta_h, theta_d)` on that slice, which is all a 2-D fit sees; beyond,
 /// its own value. Rendered, it is about the least a 2-D fit evaluated within
 /// that cut can lose (a fit adds its own error, and a shell factor beyond
-/// the cut at best matches the material there), so a target it misses is
-/// out of the slice's reach.
+/// the cut at best matches the material there): a 2-D fit would have to
+/// render closer than it to reach a target it misses.
 pub struct SliceView<B> {
     material: B,
     cos_within: f64,

@@ -162,8 +162,8 @@ fn slice_floor(goal: &Goal) -> Result<SliceFloor, RenderError> {
 /// comes before that last one (see [`TargetColour::Auto`]). The slice is
 /// searched first only when the table seen through it ([`SliceFloor`])
 /// reaches the target; otherwise after the 3-D searches, and only when
-/// their best fit renders above that floor (a slice fit could not do
-/// better). Returns why the fit was chosen, the fit with the lowest
+/// their best fit renders above that floor (below it, a slice fit would
+/// have to render under what the slice itself loses to do better). Returns why the fit was chosen, the fit with the lowest
 /// worse-scene error (the earlier search between equal errors), and every
 /// attempt.
 fn run_searches(
@@ -395,9 +395,10 @@ fn why_chosen(searches: &[(String, Search)], k: usize) -> String {
 /// tolerance that improves by less than 10% ends it). What the table seen
 /// through the slice renders at ([`super::SliceFloor`], one validation)
 /// orders the searches: at or below the target the slice comes first and
-/// the 3-D fits of `base` follow unless it reached the target; above it
-/// no slice fit can reach the target, so the 3-D fits come first and the
-/// slice follows only when their best renders above that floor. The
+/// the 3-D fits of `base` follow unless it reached the target; above it a
+/// slice fit would have to render under what the slice itself loses to
+/// reach the target, so the 3-D fits come first and the slice follows
+/// only when their best renders above that floor. The
 /// report names the reduction chosen, why, the floor and each search's
 /// best error. With
 /// [`TargetReduction::Fixed`], `base`'s reduction alone is used. With
