@@ -47,6 +47,30 @@ pub enum TargetColour {
 /// ([`TargetColour::Auto`]) may start fits within, from its own start.
 const OTHER_COLOUR_SHARE: f64 = 0.6;
 
+/// The share of the time budget the slice's search may start fits within:
+/// from the start of the target fit when it comes first, from its own
+/// start when it follows the 3-D fits.
+const SLICE_SHARE: f64 = 0.4;
+
+/// A search of the slice (or of the first reduction in another colour
+/// mode) with `settings`: the three loosest tolerances, ending where a
+/// tighter one improves by less than 10% (the reduction's own error
+/// dominates), starting fits until `deadline_s` (seconds from the start
+/// of the target fit).
+fn reduction_search(
+    goal: &Goal,
+    settings: &brdf::BrdfFitSettings,
+    deadline_s: f64,
+) -> Result<Search, RenderError> {
+    search_tolerances(goal, settings, &TOLERANCES[..3], deadline_s, true)
+}
+
+/// The deadline (seconds from the start of the target fit) `share` of the
+/// time budget from now.
+fn share_from_now(goal: &Goal, share: f64) -> f64 {
+    goal.start.elapsed().as_secs_f64() + share * goal.budget.seconds
+}
+
 /// The colour mode [`TargetColour::Auto`] tries after `mode`.
 fn other_colour(mode: brdf::ColourMode) -> brdf::ColourMode {
     match mode {
@@ -199,7 +223,7 @@ fn run_searches(
         let settings = base.clone().with_reduction(r);
         let f = slice_floor(goal)?;
         if f.worst_mean_de <= goal.target_de {
-            let s = search_tolerances(goal, &settings, &TOLERANCES[..3], 0.4 * budget_s, true)?;
+            let s = reduction_search(goal, &settings, SLICE_SHARE * budget_s)?;
             searches.push((slice_name.clone(), s));
             floor = Some(SliceFloor {
                 searched: true,
@@ -244,9 +268,8 @@ fn run_searches(
     if let (Some(settings), Some(f)) = (deferred, floor.as_mut()) {
         let best = lowest_error(&searches).map_or(f64::INFINITY, |k| searches[k].1.worst());
         if best > f.worst_mean_de {
-            // Its own allowance, as the slice has when searched first.
-            let deadline = goal.start.elapsed().as_secs_f64() + 0.4 * budget_s;
-            let s = search_tolerances(goal, &settings, &TOLERANCES[..3], deadline, true)?;
+            // Its own allowance, as when it is searched first.
+            let s = reduction_search(goal, &settings, share_from_now(goal, SLICE_SHARE))?;
             searches.push((slice_name, s));
             f.searched = true;
             first = Some((settings, searches.len() - 1));
@@ -291,9 +314,8 @@ fn other_colour_search(
         return Ok(None);
     }
     let other = other_colour(mode);
-    let deadline = goal.start.elapsed().as_secs_f64() + OTHER_COLOUR_SHARE * goal.budget.seconds;
     let settings = settings.with_colour_mode(other);
-    let s = search_tolerances(goal, &settings, &TOLERANCES[..3], deadline, true)?;
+    let s = reduction_search(goal, &settings, share_from_now(goal, OTHER_COLOUR_SHARE))?;
     Ok(Some((other, s)))
 }
 
