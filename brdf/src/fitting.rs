@@ -12,6 +12,7 @@ use crate::reduce::{Reduction, Samples};
 use crate::{Brdf, BrdfError};
 use rational_core::{FitSettings, Fitter, IntervalData, Progress, RationalFunction, SharedDesign};
 use rayon::prelude::*;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -219,7 +220,10 @@ impl BrdfFitSettings {
 /// and reports error next to cost.
 ///
 /// # Errors
-/// Invalid settings, no positive samples, or no feasible fit for a channel.
+/// Invalid settings, no positive samples, or no feasible fit for a channel:
+/// the first function of the colour mode's order that fails, whose failure
+/// stops the sweeps of the functions after it (their results would be
+/// dropped; the error is the one a fit of each function in turn would give).
 pub fn fit_brdf(
     material: &dyn Brdf,
     settings: &BrdfFitSettings,
@@ -247,9 +251,24 @@ pub fn fit_samples(
     let samples = derived.as_ref().unwrap_or(samples);
     // The channels are fitted at the same directions: one design serves all.
     let design = SharedDesign::new();
+    // The first channel in order that fails is the fit's error, so a
+    // failure stops the channels after it (at their next split): their
+    // results would be dropped. Those before it run on, since one of them
+    // may fail too and be the error named.
+    let stops: Vec<Arc<AtomicBool>> = (0..3).map(|_| Arc::default()).collect();
     let results: Vec<Result<(RationalFunction, ChannelReport), BrdfError>> = (0..3)
         .into_par_iter()
-        .map(|c| fit_channel(samples, c, settings, Some(&design)))
+        .map(|c| {
+            let engine = settings.fit.clone().with_cancel(stops[c].clone());
+            let own = settings.clone().with_fit_settings(engine);
+            let result = fit_channel(samples, c, &own, Some(&design));
+            if result.is_err() {
+                stops[c + 1..]
+                    .iter()
+                    .for_each(|f| f.store(true, Ordering::Relaxed));
+            }
+            result
+        })
         .collect();
     let parts = results.into_iter().collect::<Result<Vec<_>, _>>()?;
     let (fitted, mut report) = assemble(samples, peaks, name, settings, parts);

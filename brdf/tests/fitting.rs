@@ -284,3 +284,70 @@ fn the_functions_that_carry_light_get_the_floor_that_follows_the_tolerance() {
         }
     }
 }
+
+/// The first function in order that fails is the fit's error, so a failure
+/// stops the functions after it: here red has no finite value (an error
+/// before any solve) and blue's sweep, long on its own, ends after the
+/// split it is solving when red fails. Blue's first split waits until
+/// red's job has surely run on one of the pool's other threads.
+#[test]
+fn a_function_that_fails_stops_the_functions_after_it() {
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    use std::sync::Arc;
+    let m = CookTorranceGgx {
+        kd: [0.05, 0.1, 0.3],
+        f0: [0.04; 3],
+        alpha: 0.3,
+    };
+    let reduction = Reduction::default().with_resolution(24, 24);
+    let mut samples = reduction.sample(&m);
+    for row in &mut samples.rows {
+        (row.value[0], row.lo[0], row.hi[0]) = (f64::NAN, f64::NAN, f64::NAN);
+    }
+    let engine = rational_core::FitSettings::default()
+        .with_search(rational_core::Search::Staircase)
+        .with_coeff_range(2, 40)
+        .unwrap()
+        .with_widening(2.0, 0)
+        .unwrap();
+    let blue_splits = Arc::new(AtomicUsize::new(0));
+    let count = blue_splits.clone();
+    let settings = BrdfFitSettings::default()
+        .with_reduction(reduction)
+        .with_baselines(false)
+        .with_fit_settings(engine)
+        .with_rel_tol(1e-4)
+        .unwrap()
+        .with_channel_progress(Arc::new(move |c, _| {
+            if c == 2 && count.fetch_add(1, Ordering::Relaxed) == 0 {
+                std::thread::sleep(std::time::Duration::from_millis(300));
+            }
+        }));
+    // Blue alone: every split of its sweep.
+    let _ = brdf::fit_samples_channel(&samples, 2, &settings);
+    let alone = blue_splits.swap(0, Ordering::Relaxed);
+    assert!(alone > 20, "blue alone solved {alone} splits");
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(3)
+        .build()
+        .unwrap();
+    let err = pool
+        .install(|| brdf::fit_samples(&samples, "red unmeasured", &settings))
+        .unwrap_err();
+    // Red's own error, as without the stop.
+    match &err {
+        brdf::BrdfError::Fit { channel, source } => {
+            assert_eq!(*channel, 'r', "{err}");
+            assert!(
+                !matches!(source, rational_core::FitError::Cancelled { .. }),
+                "{err}"
+            );
+        }
+        other => panic!("expected red's fit error, got {other}"),
+    }
+    let stopped = blue_splits.load(Ordering::Relaxed);
+    assert!(
+        stopped <= 2 && stopped < alone,
+        "blue solved {stopped} splits after red failed ({alone} alone)"
+    );
+}

@@ -4,27 +4,33 @@ use crate::Error;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
-/// A shared flag that asks a solve to stop: the native backend checks it at
-/// every active-set change, the others before they start. Two flags compare
-/// equal when they are the same flag.
+/// Shared flags that ask a solve to stop when any of them is set: the
+/// native backend checks them at every active-set change, the others
+/// before they start. Two compare equal when they hold the same flags.
 #[derive(Debug, Clone, Default)]
-pub struct CancelFlag(Arc<AtomicBool>);
+pub struct CancelFlag(Vec<Arc<AtomicBool>>);
 
 impl CancelFlag {
     /// Wraps a flag that another thread (a signal handler, a deadline) sets.
     pub fn new(flag: Arc<AtomicBool>) -> Self {
-        Self(flag)
+        Self(vec![flag])
+    }
+
+    /// Stops when any of `flags` is set (none: never), so that a caller's
+    /// interrupt and a stop of its own can both end a solve.
+    pub fn any(flags: Vec<Arc<AtomicBool>>) -> Self {
+        Self(flags)
     }
 
     /// Whether a stop was asked for.
     pub fn is_set(&self) -> bool {
-        self.0.load(Ordering::Relaxed)
+        self.0.iter().any(|f| f.load(Ordering::Relaxed))
     }
 }
 
 impl PartialEq for CancelFlag {
     fn eq(&self, other: &Self) -> bool {
-        Arc::ptr_eq(&self.0, &other.0)
+        self.0.len() == other.0.len() && self.0.iter().zip(&other.0).all(|(a, b)| Arc::ptr_eq(a, b))
     }
 }
 
@@ -174,6 +180,21 @@ fn invalid(name: &'static str, reason: &str) -> Error {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_flag_of_several_stops_a_solve_and_equality_is_identity() {
+        let (a, b) = (
+            Arc::new(AtomicBool::new(false)),
+            Arc::new(AtomicBool::new(false)),
+        );
+        let both = CancelFlag::any(vec![a.clone(), b.clone()]);
+        assert!(!both.is_set() && !CancelFlag::any(Vec::new()).is_set());
+        b.store(true, Ordering::Relaxed);
+        assert!(both.is_set() && !CancelFlag::new(a.clone()).is_set());
+        assert_eq!(both, CancelFlag::any(vec![a.clone(), b.clone()]));
+        assert_ne!(both, CancelFlag::any(vec![b, a.clone()]));
+        assert_ne!(CancelFlag::new(a), CancelFlag::new(Arc::default()));
+    }
 
     #[test]
     fn invalid_values_are_refused() {

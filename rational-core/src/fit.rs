@@ -173,15 +173,13 @@ impl<'a> Prepared<'a> {
         .normalised())
     }
 
-    /// Counts a split about to be solved, or stops the sweep when its
-    /// cancel flag is set.
+    /// Counts a split about to be solved, or stops the sweep when one of
+    /// its cancel flags is set.
     fn start_split(&self) -> Result<(), FitError> {
-        if let Some(flag) = &self.settings.cancel {
-            if flag.load(Ordering::Relaxed) {
-                return Err(FitError::Cancelled {
-                    splits_tried: self.solved.load(Ordering::Relaxed),
-                });
-            }
+        if self.settings.cancelled() {
+            return Err(FitError::Cancelled {
+                splits_tried: self.solved.load(Ordering::Relaxed),
+            });
         }
         self.solved.fetch_add(1, Ordering::Relaxed);
         Ok(())
@@ -224,8 +222,8 @@ impl<'a> Prepared<'a> {
         let (function, verification) = loop {
             let problem = self.problem(data, n_p, n_q, &rows)?;
             let mut options = self.settings.solve_options.clone().with_warm_start(warm);
-            if let Some(flag) = &self.settings.cancel {
-                options = options.with_cancel(CancelFlag::new(flag.clone()));
+            if !self.settings.cancel.is_empty() {
+                options = options.with_cancel(CancelFlag::any(self.settings.cancel.clone()));
             }
             let sol = self.settings.backend.solve(&problem, &options)?;
             let data_rows = 2 * data.len();
@@ -417,8 +415,8 @@ impl<'a> Prepared<'a> {
         let problem = build_problem_in(&design, &sub_data, n_p, n_q, &added, self.scale)?;
         let hint = warm.iter().filter_map(|&j| numbering.to_sub(j)).collect();
         let mut options = self.settings.solve_options.clone().with_warm_start(hint);
-        if let Some(flag) = &self.settings.cancel {
-            options = options.with_cancel(CancelFlag::new(flag.clone()));
+        if !self.settings.cancel.is_empty() {
+            options = options.with_cancel(CancelFlag::any(self.settings.cancel.clone()));
         }
         let sol = self.settings.backend.solve(&problem, &options)?;
         let rows = sol

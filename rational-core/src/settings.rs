@@ -3,7 +3,7 @@
 use crate::{BasisFamily, Domain, FitError, PoleControl, SharedDesign};
 use qp_backends::{Backend, SolveOptions};
 use serde::{Deserialize, Serialize};
-use std::sync::atomic::AtomicBool;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
 /// How the sweep picks among the feasible splits of one budget.
@@ -123,7 +123,7 @@ pub struct FitSettings {
     pub(crate) pole_control: PoleControl,
     pub(crate) value_scaling: bool,
     pub(crate) progress: Option<ProgressFn>,
-    pub(crate) cancel: Option<Arc<AtomicBool>>,
+    pub(crate) cancel: Vec<Arc<AtomicBool>>,
     pub(crate) shared_design: Option<SharedDesign>,
     pub(crate) screen: Screen,
 }
@@ -181,7 +181,7 @@ impl std::fmt::Debug for FitSettings {
             .field("max_widenings", &self.max_widenings)
             .field("pole_control", &self.pole_control)
             .field("value_scaling", &self.value_scaling)
-            .field("cancellable", &self.cancel.is_some())
+            .field("cancel_flags", &self.cancel.len())
             .field("shared_design", &self.shared_design.is_some())
             .field("screen", &self.screen)
             .finish_non_exhaustive()
@@ -208,7 +208,7 @@ impl Default for FitSettings {
             pole_control: PoleControl::default(),
             value_scaling: true,
             progress: None,
-            cancel: None,
+            cancel: Vec::new(),
             shared_design: None,
             screen: Screen::default(),
         }
@@ -367,13 +367,21 @@ impl FitSettings {
         self
     }
 
-    /// A flag that stops the sweep: once set, no further split is solved and
-    /// the fit returns [`FitError::Cancelled`]; splits being solved stop at
-    /// their next active-set change (native backend) or when they end. Lets a caller interrupt a long fit (Ctrl-C in an
-    /// interactive session, a deadline in a server).
+    /// Adds a flag that stops the sweep: once any of the settings' flags is
+    /// set, no further split is solved and the fit returns
+    /// [`FitError::Cancelled`]; splits being solved stop at their next
+    /// active-set change (native backend) or when they end. Lets a caller
+    /// interrupt a long fit (Ctrl-C in an interactive session, a deadline in
+    /// a server) and a library stop fits whose result is no longer needed,
+    /// each with its own flag.
     pub fn with_cancel(mut self, flag: Arc<AtomicBool>) -> Self {
-        self.cancel = Some(flag);
+        self.cancel.push(flag);
         self
+    }
+
+    /// Whether one of the cancel flags ([`FitSettings::with_cancel`]) is set.
+    pub(crate) fn cancelled(&self) -> bool {
+        self.cancel.iter().any(|f| f.load(Ordering::Relaxed))
     }
 
     /// The smallest and largest total coefficient budgets searched.

@@ -75,6 +75,36 @@ fn a_set_cancel_flag_stops_the_sweep() {
 }
 
 #[test]
+fn any_of_several_cancel_flags_stops_the_sweep() {
+    use std::sync::atomic::{AtomicBool, Ordering};
+    use std::sync::Arc;
+    let x = line(200);
+    let v: Vec<f64> = x.iter().map(|x| (8.0 * x).sin() + 2.0).collect();
+    let d = IntervalData::from_values_relative(1, x, v, 1e-6).unwrap();
+    let (interrupt, own) = (
+        Arc::new(AtomicBool::new(false)),
+        Arc::new(AtomicBool::new(false)),
+    );
+    let s = FitSettings::default()
+        .with_cancel(interrupt.clone())
+        .with_cancel(own.clone());
+    let small = IntervalData::from_values_relative(1, line(50), vec![1.0; 50], 0.1).unwrap();
+    assert!(fit(&small, &s).is_ok());
+    // The second flag alone stops it: adding a flag keeps the first.
+    own.store(true, Ordering::Relaxed);
+    assert!(matches!(
+        fit(&d, &s),
+        Err(FitError::Cancelled { splits_tried: 0 })
+    ));
+    own.store(false, Ordering::Relaxed);
+    interrupt.store(true, Ordering::Relaxed);
+    assert!(matches!(
+        fit(&d, &s),
+        Err(FitError::Cancelled { splits_tried: 0 })
+    ));
+}
+
+#[test]
 fn zero_width_intervals_have_no_strict_solution() {
     // P(n, m) asks for a positive margin; a zero-width interval has none.
     let x = line(20);
