@@ -223,7 +223,9 @@ impl BrdfFitSettings {
 /// Invalid settings, no positive samples, or no feasible fit for a channel:
 /// the first function of the colour mode's order that fails, whose failure
 /// stops the sweeps of the functions after it (their results would be
-/// dropped; the error is the one a fit of each function in turn would give).
+/// dropped) and turns those before it to settling only whether they have a
+/// fit (`rational_core::FitSettings::with_existence_only`): the error is
+/// the one a fit of each function in turn would give.
 pub fn fit_brdf(
     material: &dyn Brdf,
     settings: &BrdfFitSettings,
@@ -253,27 +255,55 @@ pub fn fit_samples(
     let design = SharedDesign::new();
     // The first channel in order that fails is the fit's error, so a
     // failure stops the channels after it (at their next split): their
-    // results would be dropped. Those before it run on, since one of them
-    // may fail too and be the error named.
-    let stops: Vec<Arc<AtomicBool>> = (0..3).map(|_| Arc::default()).collect();
+    // results would be dropped. Those before it need only settle whether
+    // they fail too (and would be the error named), not find their fits.
+    let flags = || -> Vec<Arc<AtomicBool>> { (0..3).map(|_| Arc::default()).collect() };
+    let (stops, settles) = (flags(), flags());
     let results: Vec<Result<(RationalFunction, ChannelReport), BrdfError>> = (0..3)
         .into_par_iter()
         .map(|c| {
-            let engine = settings.fit.clone().with_cancel(stops[c].clone());
+            let engine = settings
+                .fit
+                .clone()
+                .with_cancel(stops[c].clone())
+                .with_existence_only(settles[c].clone());
             let own = settings.clone().with_fit_settings(engine);
             let result = fit_channel(samples, c, &own, Some(&design));
-            if result.is_err() {
-                stops[c + 1..]
-                    .iter()
-                    .for_each(|f| f.store(true, Ordering::Relaxed));
+            if result.as_ref().is_err_and(|e| !fit_exists(e)) {
+                let set = |f: &Arc<AtomicBool>| f.store(true, Ordering::Relaxed);
+                stops[c + 1..].iter().for_each(set);
+                settles[..c].iter().for_each(set);
             }
             result
         })
         .collect();
-    let parts = results.into_iter().collect::<Result<Vec<_>, _>>()?;
+    // A channel that settled only that it has a fit did so because one
+    // after it failed: that failure (or an earlier one) is the error.
+    let parts = results
+        .into_iter()
+        .filter(|r| !r.as_ref().is_err_and(fit_exists))
+        .collect::<Result<Vec<_>, _>>()?;
+    if parts.len() < 3 {
+        return Err(BrdfError::Invalid {
+            name: "channel fits",
+            reason: "a channel stopped with no failing channel after it".into(),
+        });
+    }
     let (fitted, mut report) = assemble(samples, peaks, name, settings, parts);
     report.seconds = start.elapsed().as_secs_f64();
     Ok((fitted, report))
+}
+
+/// Whether `e` says only that a channel has a fit
+/// (`rational_core::FitSettings::with_existence_only`).
+fn fit_exists(e: &BrdfError) -> bool {
+    matches!(
+        e,
+        BrdfError::Fit {
+            source: rational_core::FitError::FitExists { .. },
+            ..
+        }
+    )
 }
 
 /// Fits one of the three functions of [`fit_samples`] (`channel` 0, 1 or 2

@@ -351,3 +351,67 @@ fn a_function_that_fails_stops_the_functions_after_it() {
         "blue solved {stopped} splits after red failed ({alone} alone)"
     );
 }
+
+/// A function that fails names the fit's error only where none before it
+/// fails too, so the functions before it settle just that: here blue has
+/// no finite value and red, whose sweep finds a fit in many splits on its
+/// own, stops at its next split and proves it has a fit with the largest
+/// budget's first split. The error is blue's, as fitting each function in
+/// turn gives.
+#[test]
+fn the_functions_before_a_failed_one_settle_only_whether_they_fit() {
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    use std::sync::Arc;
+    let m = CookTorranceGgx {
+        kd: [0.05, 0.1, 0.3],
+        f0: [0.04; 3],
+        alpha: 0.3,
+    };
+    let reduction = Reduction::default().with_resolution(24, 24);
+    let mut samples = reduction.sample(&m);
+    for row in &mut samples.rows {
+        (row.value[2], row.lo[2], row.hi[2]) = (f64::NAN, f64::NAN, f64::NAN);
+    }
+    let engine = rational_core::FitSettings::default()
+        .with_search(rational_core::Search::Staircase)
+        .with_coeff_range(2, 40)
+        .unwrap()
+        .with_widening(2.0, 1)
+        .unwrap();
+    let red_splits = Arc::new(AtomicUsize::new(0));
+    let count = red_splits.clone();
+    let settings = BrdfFitSettings::default()
+        .with_reduction(reduction)
+        .with_baselines(false)
+        .with_cap_rounds(0)
+        .unwrap()
+        .with_fit_settings(engine)
+        .with_rel_tol(0.003)
+        .unwrap()
+        .with_channel_progress(Arc::new(move |c, _| {
+            if c == 0 && count.fetch_add(1, Ordering::Relaxed) == 0 {
+                std::thread::sleep(std::time::Duration::from_millis(300));
+            }
+        }));
+    // Red alone: a fit, after every split of its sweep.
+    brdf::fit_samples_channel(&samples, 0, &settings).unwrap();
+    let alone = red_splits.swap(0, Ordering::Relaxed);
+    assert!(alone > 10, "red alone solved {alone} splits");
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(3)
+        .build()
+        .unwrap();
+    let err = pool
+        .install(|| brdf::fit_samples(&samples, "blue unmeasured", &settings))
+        .unwrap_err();
+    match &err {
+        brdf::BrdfError::Fit { channel, .. } => assert_eq!(*channel, 'b', "{err}"),
+        other => panic!("expected blue's fit error, got {other}"),
+    }
+    // Progress is reported by the searches, not by the settling splits.
+    let settled = red_splits.load(Ordering::Relaxed);
+    assert!(
+        settled <= 1 && settled < alone,
+        "red solved {settled} splits of its search after blue failed ({alone} alone)"
+    );
+}

@@ -70,6 +70,13 @@ pub enum FitError {
         /// Splits solved before the flag was seen.
         splits_tried: usize,
     },
+    /// A fit exists, found while settling only that
+    /// ([`crate::FitSettings::with_existence_only`]); none is returned.
+    #[error("a fit exists (found after {splits_tried} splits); the sweep settled only that")]
+    FitExists {
+        /// Splits solved in all.
+        splits_tried: usize,
+    },
     /// The solver layer refused (bad problem, backend not compiled, ...).
     #[error(transparent)]
     Backend(#[from] qp_backends::Error),

@@ -14,7 +14,7 @@ use crate::{
 };
 use qp_backends::{CancelFlag, LdpProblem, Status};
 use rayon::prelude::*;
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::time::Instant;
 
 /// Dense-grid rounds before a split with poles between samples is rejected.
@@ -55,6 +55,15 @@ struct Prepared<'a> {
     scale: f64,
     /// Splits started, reported when the sweep is cancelled.
     solved: AtomicUsize,
+    /// Stopped by [`FitSettings::with_existence_only`]'s flag.
+    interrupted: AtomicBool,
+    /// A sweep that may be stopped to settle whether a fit exists (not a
+    /// single split, nor a sweep settling it already).
+    may_settle: AtomicBool,
+    /// A split was accepted: a staircase sweep returns a fit of the level
+    /// it was accepted at, if not of one before (the widest level's
+    /// largest budget counts too).
+    accepted_one: AtomicBool,
 }
 
 impl<'a> Prepared<'a> {
@@ -98,6 +107,9 @@ impl<'a> Prepared<'a> {
             extra,
             scale,
             solved: AtomicUsize::new(0),
+            interrupted: AtomicBool::new(false),
+            may_settle: AtomicBool::new(false),
+            accepted_one: AtomicBool::new(false),
         })
     }
 
@@ -177,6 +189,13 @@ impl<'a> Prepared<'a> {
     /// its cancel flags is set.
     fn start_split(&self) -> Result<(), FitError> {
         if self.settings.cancelled() {
+            return Err(FitError::Cancelled {
+                splits_tried: self.solved.load(Ordering::Relaxed),
+            });
+        }
+        if self.may_settle.load(Ordering::Relaxed) && self.settings.existence_only() {
+            // Caught by `sweep`, which settles whether a fit exists.
+            self.interrupted.store(true, Ordering::Relaxed);
             return Err(FitError::Cancelled {
                 splits_tried: self.solved.load(Ordering::Relaxed),
             });
@@ -286,6 +305,7 @@ impl<'a> Prepared<'a> {
                 _ => {}
             }
             summary.accepted = true;
+            self.accepted_one.store(true, Ordering::Relaxed);
             if want_condition {
                 summary.condition_number = Some(self.condition_before_poles(
                     &problem,
@@ -637,73 +657,224 @@ pub(crate) fn sweep(
     let start = Instant::now();
     let max_n = check_sizes(data, settings)?;
     let prep = Prepared::new(data, settings, extra, (max_n - 1).max(1))?;
-    let want_condition = settings.selection == Selection::ConditionNumber;
-    let mut current = data.clone();
+    prep.may_settle.store(true, Ordering::Relaxed);
+    let sweep = Sweep {
+        prep: &prep,
+        data,
+        max_n,
+        known,
+        proofs,
+        start,
+    };
     let mut summaries = Vec::new();
-    let nothing_known = KnownInfeasible::default();
-    for widenings in 0..=settings.max_widenings {
-        if proofs.iter().any(|p| p.covers(&current, settings)) {
-            // Proved to have no fit: nothing to solve at this width.
+    match sweep.levels(&mut summaries) {
+        Err(FitError::Cancelled { .. }) if prep.interrupted.load(Ordering::Relaxed) => {
+            sweep.settle(summaries)
+        }
+        other => other,
+    }
+}
+
+/// One sweep's data, settings and what is known before it.
+struct Sweep<'a, 'p> {
+    prep: &'a Prepared<'p>,
+    data: &'a IntervalData,
+    max_n: usize,
+    known: &'a KnownInfeasible,
+    proofs: &'a [NoFitProof],
+    start: Instant,
+}
+
+impl Sweep<'_, '_> {
+    /// The data widened to the settings' widest level, as the levels of
+    /// [`Sweep::levels`] reach it (the same widenings in the same order).
+    fn widest(&self) -> IntervalData {
+        let settings = self.prep.settings;
+        let mut widest = self.data.clone();
+        for _ in 0..settings.max_widenings {
+            widest = widest.widened(settings.widen_factor);
+        }
+        widest
+    }
+
+    fn no_fit(&self, splits: Vec<SplitSummary>) -> FitError {
+        FitError::NoFeasibleFit {
+            splits,
+            max_coeffs: self.max_n,
+            widenings: self.prep.settings.max_widenings,
+            factor: self.prep.settings.widen_factor,
+        }
+    }
+
+    fn covered(&self, data: &IntervalData) -> bool {
+        self.proofs
+            .iter()
+            .any(|p| p.covers(data, self.prep.settings))
+    }
+
+    /// The settings' search at each widening level in turn, until one has
+    /// a fit.
+    fn levels(&self, summaries: &mut Vec<SplitSummary>) -> Result<FitReport, FitError> {
+        let (prep, settings, max_n) = (self.prep, self.prep.settings, self.max_n);
+        let want_condition = settings.selection == Selection::ConditionNumber;
+        let mut current = self.data.clone();
+        let nothing_known = KnownInfeasible::default();
+        for widenings in 0..=settings.max_widenings {
+            // A screen's binding rows depend on every solve before, so with
+            // one this check could change the fit returned.
+            if widenings == 1 && settings.search != Search::Probe && prep.screen.is_none() {
+                // The exact intervals have no fit: before a search at each
+                // wider level, the widest level's largest budget.
+                let widest = self.widest();
+                if !self.covered(&widest) {
+                    match largest_budget(prep, &widest, (max_n, true), summaries)? {
+                        Tops::Refused => return Err(self.no_fit(std::mem::take(summaries))),
+                        Tops::Fit | Tops::Open => {}
+                    }
+                }
+            }
+            if self.covered(&current) {
+                // Proved to have no fit: nothing to solve at this width.
+                if widenings < settings.max_widenings {
+                    current = current.widened(settings.widen_factor);
+                }
+                continue;
+            }
+            let single_budget = settings.min_coeffs == max_n;
+            // What was proved at the given intervals says nothing of wider ones.
+            let known = if widenings == 0 {
+                self.known
+            } else {
+                &nothing_known
+            };
+            let first = summaries.len();
+            let searched = match settings.search {
+                Search::Exhaustive | Search::Staircase if want_condition && single_budget => {
+                    by_condition(prep, &current, max_n, known, summaries)
+                }
+                Search::Exhaustive => exhaustive(prep, &current, max_n, summaries),
+                Search::Staircase => staircase(prep, &current, max_n, known, summaries),
+                Search::Probe => probing(prep, &current, max_n, summaries),
+            };
+            // Tagged even where the search stopped part way.
+            for s in &mut summaries[first..] {
+                s.widenings = widenings;
+            }
+            let mut candidates = searched?;
+            if want_condition {
+                prep.condition_numbers(&current, &mut candidates, &mut summaries[first..])?;
+            }
+            if let Some(best) = select(candidates, settings.selection) {
+                let function = best.function.expect("accepted splits carry a function");
+                let errors = error_figures(&function, &current);
+                return Ok(FitReport {
+                    n_p: best.summary.n_p,
+                    n_q: best.summary.n_q,
+                    depth: best.summary.depth,
+                    condition_number: best.summary.condition_number,
+                    errors,
+                    verification: best.verification.expect("accepted splits are verified"),
+                    poles: best.poles,
+                    seconds: self.start.elapsed().as_secs_f64(),
+                    samples: self.data.len(),
+                    splits_tried: summaries.len(),
+                    widenings,
+                    interval_scale: settings.widen_factor.powi(widenings as i32),
+                    backend: settings.backend.name().to_string(),
+                    selection: settings.selection,
+                    search: settings.search,
+                    splits: std::mem::take(summaries),
+                    function,
+                });
+            }
             if widenings < settings.max_widenings {
                 current = current.widened(settings.widen_factor);
             }
-            continue;
         }
-        let single_budget = settings.min_coeffs == max_n;
-        // What was proved at the given intervals says nothing of wider ones.
-        let known = if widenings == 0 {
-            known
-        } else {
-            &nothing_known
+        Err(self.no_fit(std::mem::take(summaries)))
+    }
+
+    /// [`FitSettings::with_existence_only`]: whether the sweep would return
+    /// a fit, from the widest level's largest budget; where that proves
+    /// neither, the sweep from the start with the flag ignored.
+    fn settle(&self, mut summaries: Vec<SplitSummary>) -> Result<FitReport, FitError> {
+        let prep = self.prep;
+        prep.may_settle.store(false, Ordering::Relaxed);
+        let exists = || FitError::FitExists {
+            splits_tried: prep.solved.load(Ordering::Relaxed),
         };
-        let first = summaries.len();
-        let mut candidates = match settings.search {
-            Search::Exhaustive | Search::Staircase if want_condition && single_budget => {
-                by_condition(&prep, &current, max_n, known, &mut summaries)?
-            }
-            Search::Exhaustive => exhaustive(&prep, &current, max_n, &mut summaries)?,
-            Search::Staircase => staircase(&prep, &current, max_n, known, &mut summaries)?,
-            Search::Probe => probing(&prep, &current, max_n, &mut summaries)?,
-        };
-        if want_condition {
-            prep.condition_numbers(&current, &mut candidates, &mut summaries)?;
+        if prep.accepted_one.load(Ordering::Relaxed) {
+            return Err(exists());
         }
-        for s in &mut summaries[first..] {
-            s.widenings = widenings;
+        let widest = self.widest();
+        if self.covered(&widest) {
+            return Err(self.no_fit(summaries));
         }
-        if let Some(best) = select(candidates, settings.selection) {
-            let function = best.function.expect("accepted splits carry a function");
-            let errors = error_figures(&function, &current);
-            return Ok(FitReport {
-                n_p: best.summary.n_p,
-                n_q: best.summary.n_q,
-                depth: best.summary.depth,
-                condition_number: best.summary.condition_number,
-                errors,
-                verification: best.verification.expect("accepted splits are verified"),
-                poles: best.poles,
-                seconds: start.elapsed().as_secs_f64(),
-                samples: data.len(),
-                splits_tried: summaries.len(),
-                widenings,
-                interval_scale: settings.widen_factor.powi(widenings as i32),
-                backend: settings.backend.name().to_string(),
-                selection: settings.selection,
-                search: settings.search,
-                splits: summaries,
-                function,
-            });
-        }
-        if widenings < settings.max_widenings {
-            current = current.widened(settings.widen_factor);
+        match largest_budget(prep, &widest, (self.max_n, false), &mut summaries)? {
+            Tops::Refused => Err(self.no_fit(summaries)),
+            Tops::Fit => Err(exists()),
+            // Every level's splits solved again, each from its own start.
+            Tops::Open => self.levels(&mut Vec::new()),
         }
     }
-    Err(FitError::NoFeasibleFit {
-        splits: summaries,
-        max_coeffs: max_n,
-        widenings: settings.max_widenings,
-        factor: settings.widen_factor,
-    })
+}
+
+/// What the largest budget's splits at the widest level say
+/// ([`largest_budget`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Tops {
+    /// Every split refused with a certificate of infeasibility.
+    Refused,
+    /// One was accepted.
+    Fit,
+    /// One was refused without a certificate.
+    Open,
+}
+
+/// The splits `(max_n - n_q, n_q)` of the largest budget at the widest
+/// widening level (`data`), for `n_q = 1, 2, ...` in turn until one is not
+/// refused with a certificate of infeasibility; their summaries are
+/// appended to `summaries`, at that level. Without `until_open`, on past
+/// such a split until one is accepted (a fit is what settling asks for).
+/// Every split of every budget up
+/// to `max_n` is nested in one of them (a basis of fewer coefficients is
+/// one of more with zeros), so [`Tops::Refused`] proves that `data` has no
+/// fit, nor has any level of narrower intervals. A staircase walk of the
+/// largest budget solves the same splits from the same start, so
+/// [`Tops::Fit`] means that a staircase sweep would return a fit.
+///
+/// A sweep whose exact intervals have no fit asks this before searching
+/// the levels between: where the widest level has no fit either, one walk
+/// of the largest budget's splits proves it for every level, instead of a
+/// search of every budget at each. Otherwise the sweep goes on as it would
+/// have, and each level's search solves its own splits from its own start
+/// (the fit returned does not depend on this check), at the cost of the
+/// splits solved here: one, where the largest budget's first split fits.
+fn largest_budget(
+    prep: &Prepared<'_>,
+    data: &IntervalData,
+    (max_n, until_open): (usize, bool),
+    summaries: &mut Vec<SplitSummary>,
+) -> Result<Tops, FitError> {
+    let mut active = Vec::new();
+    let level = prep.settings.max_widenings;
+    let mut verdict = if max_n > 1 { Tops::Refused } else { Tops::Open };
+    for n_q in 1..max_n {
+        let mut f = prep.solve(data, max_n - n_q, n_q, false, &mut active)?;
+        f.summary.widenings = level;
+        let (refused, accepted) = (f.summary.proved_infeasible(), f.summary.accepted);
+        summaries.push(f.summary);
+        if accepted {
+            return Ok(Tops::Fit);
+        }
+        if !refused {
+            verdict = Tops::Open;
+            if until_open {
+                break;
+            }
+        }
+    }
+    Ok(verdict)
 }
 
 /// The settings' criterion among accepted splits of one budget.

@@ -124,6 +124,7 @@ pub struct FitSettings {
     pub(crate) value_scaling: bool,
     pub(crate) progress: Option<ProgressFn>,
     pub(crate) cancel: Vec<Arc<AtomicBool>>,
+    pub(crate) existence_only: Option<Arc<AtomicBool>>,
     pub(crate) shared_design: Option<SharedDesign>,
     pub(crate) screen: Screen,
 }
@@ -182,6 +183,7 @@ impl std::fmt::Debug for FitSettings {
             .field("pole_control", &self.pole_control)
             .field("value_scaling", &self.value_scaling)
             .field("cancel_flags", &self.cancel.len())
+            .field("existence_only", &self.existence_only.is_some())
             .field("shared_design", &self.shared_design.is_some())
             .field("screen", &self.screen)
             .finish_non_exhaustive()
@@ -209,6 +211,7 @@ impl Default for FitSettings {
             value_scaling: true,
             progress: None,
             cancel: Vec::new(),
+            existence_only: None,
             shared_design: None,
             screen: Screen::default(),
         }
@@ -308,6 +311,15 @@ impl FitSettings {
     /// sign on a log scale (zero never enters), others about their centre
     /// ([`crate::IntervalData::widened`]).
     ///
+    /// When the exact intervals have no fit, the widest level's largest
+    /// budget is solved first, split by split: if every split is refused
+    /// with a certificate of infeasibility, no level has a fit and the
+    /// sweep ends there, without searching the levels between. Otherwise
+    /// the levels are searched as they would be without it (the fit
+    /// returned is the same; the splits solved are reported at the widest
+    /// level). Not with [`crate::Search::Probe`], nor on screened data
+    /// ([`crate::Screen`]).
+    ///
     /// # Errors
     /// `factor <= 1` or not finite.
     pub fn with_widening(mut self, factor: f64, times: usize) -> Result<Self, FitError> {
@@ -377,6 +389,31 @@ impl FitSettings {
     pub fn with_cancel(mut self, flag: Arc<AtomicBool>) -> Self {
         self.cancel.push(flag);
         self
+    }
+
+    /// A flag that turns the sweep from finding the smallest fit to
+    /// settling whether any exists: once it is set, a staircase sweep
+    /// ([`Search::Staircase`]) stops at its next split and solves the
+    /// widest widening level's largest budget, split by split
+    /// ([`FitSettings::with_widening`]). A split accepted there means the
+    /// sweep would have returned a fit ([`FitError::FitExists`]); every
+    /// split refused with a certificate means it would have returned
+    /// [`FitError::NoFeasibleFit`], which it does; otherwise the sweep
+    /// starts again as if the flag were not set. For a caller that needs
+    /// one function's outcome only where another's has failed (the error
+    /// named is the first in order), not its fit. Other searches ignore it.
+    pub fn with_existence_only(mut self, flag: Arc<AtomicBool>) -> Self {
+        self.existence_only = Some(flag);
+        self
+    }
+
+    /// Whether the flag of [`FitSettings::with_existence_only`] is set.
+    pub(crate) fn existence_only(&self) -> bool {
+        self.search == Search::Staircase
+            && self
+                .existence_only
+                .as_ref()
+                .is_some_and(|f| f.load(Ordering::Relaxed))
     }
 
     /// Whether one of the cancel flags ([`FitSettings::with_cancel`]) is set.

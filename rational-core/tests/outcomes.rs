@@ -1,7 +1,9 @@
 //! Bad input gets a named error; an impossible fit is reported as such;
 //! widening recovers a fit when it is allowed.
 
-use rational_core::{fit, Backend, FitError, FitSettings, Fitter, IntervalData, PoleControl};
+use rational_core::{
+    fit, Backend, FitError, FitSettings, Fitter, IntervalData, PoleControl, Search,
+};
 
 fn line(n: usize) -> Vec<f64> {
     (0..n).map(|i| i as f64 / (n - 1).max(1) as f64).collect()
@@ -225,4 +227,116 @@ fn a_report_round_trips_through_json() {
     assert_eq!(back.function, report.function);
     assert_eq!(back.verification, report.verification);
     assert_eq!(back.splits, report.splits);
+}
+
+/// `sin(8 x) + 2` at 200 points within `rel_tol`: budgets up to 8 fit it
+/// from 1% (widened twice from 0.25%), not at 0.4% (widened twice from
+/// 0.1%).
+fn wave(rel_tol: f64) -> IntervalData {
+    let x = line(200);
+    let v: Vec<f64> = x.iter().map(|x| (8.0 * x).sin() + 2.0).collect();
+    IntervalData::from_values_relative(1, x, v, rel_tol).unwrap()
+}
+
+fn up_to_8(search: Search, widenings: usize) -> FitSettings {
+    FitSettings::default()
+        .with_search(search)
+        .with_coeff_range(2, 8)
+        .unwrap()
+        .with_widening(2.0, widenings)
+        .unwrap()
+}
+
+#[test]
+fn no_fit_at_the_widest_level_is_proved_by_its_largest_budget_alone() {
+    for search in [Search::Exhaustive, Search::Staircase] {
+        let d = wave(1e-3);
+        let Err(FitError::NoFeasibleFit {
+            splits,
+            widenings: 2,
+            ..
+        }) = fit(&d, &up_to_8(search, 2))
+        else {
+            panic!("{search:?}: a fit within 8 coefficients at 0.4%");
+        };
+        // The exact intervals searched, the level between never solved,
+        // and the widest level's seven splits of budget 8, each refused
+        // with a certificate.
+        assert!(splits.iter().any(|s| s.widenings == 0));
+        assert!(splits.iter().all(|s| s.widenings != 1), "{search:?}");
+        let widest: Vec<_> = splits.iter().filter(|s| s.widenings == 2).collect();
+        let tops: Vec<_> = (1..8).map(|n_q| (8 - n_q, n_q)).collect();
+        assert_eq!(
+            widest.iter().map(|s| (s.n_p, s.n_q)).collect::<Vec<_>>(),
+            tops
+        );
+        assert!(widest.iter().all(|s| s.proved_infeasible()));
+        // Each level on its own has no fit either.
+        let mut level = d;
+        for _ in 0..=2 {
+            assert!(matches!(
+                fit(&level, &up_to_8(search, 0)),
+                Err(FitError::NoFeasibleFit { .. })
+            ));
+            level = level.widened(2.0);
+        }
+    }
+}
+
+#[test]
+fn the_widest_levels_check_changes_no_fit_returned() {
+    for search in [Search::Exhaustive, Search::Staircase] {
+        for (rel_tol, level) in [(0.01, 1), (0.003, 2)] {
+            let d = wave(rel_tol);
+            let checked_at_2 = fit(&d, &up_to_8(search, 2)).unwrap();
+            assert_eq!(checked_at_2.widenings, level, "{search:?} {rel_tol}");
+            // The check's solves are reported, at the level they were made.
+            assert!(checked_at_2.splits.iter().any(|s| s.widenings == 2));
+            // Checked at a wider level, each level's search is the same.
+            let checked_at_3 = fit(&d, &up_to_8(search, 3)).unwrap();
+            assert!(checked_at_3.splits.iter().any(|s| s.widenings == 3));
+            let (a, b) = (&checked_at_2.function, &checked_at_3.function);
+            assert_eq!(checked_at_2.widenings, checked_at_3.widenings);
+            assert_eq!(a.numerator(), b.numerator(), "{search:?} {rel_tol}");
+            assert_eq!(a.denominator(), b.denominator());
+        }
+    }
+}
+
+#[test]
+fn an_existence_only_sweep_settles_without_finding_the_fit() {
+    use std::sync::atomic::AtomicBool;
+    use std::sync::Arc;
+    let settle = |s: FitSettings| s.with_existence_only(Arc::new(AtomicBool::new(true)));
+    let staircase = up_to_8(Search::Staircase, 2);
+    // A fit at the first widening: the widest level's first split of the
+    // largest budget says so, and nothing else is solved.
+    let d = wave(0.01);
+    assert!(fit(&d, &staircase).is_ok());
+    assert!(matches!(
+        fit(&d, &settle(staircase.clone())),
+        Err(FitError::FitExists { splits_tried: 1 })
+    ));
+    // No fit: the widest level's largest budget proves it, as the sweep
+    // without the flag finds.
+    let d = wave(1e-3);
+    assert!(matches!(
+        fit(&d, &staircase),
+        Err(FitError::NoFeasibleFit { .. })
+    ));
+    let Err(FitError::NoFeasibleFit { splits, .. }) = fit(&d, &settle(staircase)) else {
+        panic!("a fit within 8 coefficients at 0.4%");
+    };
+    assert_eq!(splits.len(), 7);
+    assert!(splits
+        .iter()
+        .all(|s| s.widenings == 2 && s.proved_infeasible()));
+    // The other searches fit as usual, and so is a single split.
+    let exhaustive = up_to_8(Search::Exhaustive, 2);
+    assert!(fit(&wave(0.01), &settle(exhaustive)).is_ok());
+    let split = Fitter::new(&wave(0.01))
+        .settings(settle(up_to_8(Search::Staircase, 2)))
+        .split(7, 1)
+        .unwrap();
+    assert!(split.summary.status != rational_core::Status::Cancelled);
 }
