@@ -285,13 +285,20 @@ fn the_functions_that_carry_light_get_the_floor_that_follows_the_tolerance() {
     }
 }
 
-/// The first function in order that fails is the fit's error, so a failure
-/// stops the functions after it: here red has no finite value (an error
-/// before any solve) and blue's sweep, long on its own, ends after the
-/// split it is solving when red fails. Blue's first split waits until
-/// red's job has surely run on one of the pool's other threads.
-#[test]
-fn a_function_that_fails_stops_the_functions_after_it() {
+/// A 24 x 24 reduction of a GGX material whose channel `unmeasured` has no
+/// finite value (its fit fails before any solve), and staircase settings
+/// with `widenings` whose progress counts channel `watched`'s splits and
+/// sleeps 300 ms at its first, so that the failing channel's job surely runs
+/// first on one of the pool's other threads.
+fn one_channel_unmeasured(
+    unmeasured: usize,
+    watched: usize,
+    widenings: usize,
+) -> (
+    brdf::Samples,
+    BrdfFitSettings,
+    std::sync::Arc<std::sync::atomic::AtomicUsize>,
+) {
     use std::sync::atomic::{AtomicUsize, Ordering};
     use std::sync::Arc;
     let m = CookTorranceGgx {
@@ -302,36 +309,51 @@ fn a_function_that_fails_stops_the_functions_after_it() {
     let reduction = Reduction::default().with_resolution(24, 24);
     let mut samples = reduction.sample(&m);
     for row in &mut samples.rows {
-        (row.value[0], row.lo[0], row.hi[0]) = (f64::NAN, f64::NAN, f64::NAN);
+        let c = unmeasured;
+        (row.value[c], row.lo[c], row.hi[c]) = (f64::NAN, f64::NAN, f64::NAN);
     }
     let engine = rational_core::FitSettings::default()
         .with_search(rational_core::Search::Staircase)
         .with_coeff_range(2, 40)
         .unwrap()
-        .with_widening(2.0, 0)
+        .with_widening(2.0, widenings)
         .unwrap();
-    let blue_splits = Arc::new(AtomicUsize::new(0));
-    let count = blue_splits.clone();
+    let splits = Arc::new(AtomicUsize::new(0));
+    let count = splits.clone();
     let settings = BrdfFitSettings::default()
         .with_reduction(reduction)
         .with_baselines(false)
         .with_fit_settings(engine)
-        .with_rel_tol(1e-4)
-        .unwrap()
         .with_channel_progress(Arc::new(move |c, _| {
-            if c == 2 && count.fetch_add(1, Ordering::Relaxed) == 0 {
+            if c == watched && count.fetch_add(1, Ordering::Relaxed) == 0 {
                 std::thread::sleep(std::time::Duration::from_millis(300));
             }
         }));
+    (samples, settings, splits)
+}
+
+/// A pool of three threads, one per function.
+fn three_threads() -> rayon::ThreadPool {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(3)
+        .build()
+        .unwrap()
+}
+
+/// The first function in order that fails is the fit's error, so a failure
+/// stops the functions after it: here red has no finite value (an error
+/// before any solve) and blue's sweep, long on its own, ends after the
+/// split it is solving when red fails.
+#[test]
+fn a_function_that_fails_stops_the_functions_after_it() {
+    use std::sync::atomic::Ordering;
+    let (samples, settings, blue_splits) = one_channel_unmeasured(0, 2, 0);
+    let settings = settings.with_rel_tol(1e-4).unwrap();
     // Blue alone: every split of its sweep.
     let _ = brdf::fit_samples_channel(&samples, 2, &settings);
     let alone = blue_splits.swap(0, Ordering::Relaxed);
     assert!(alone > 20, "blue alone solved {alone} splits");
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(3)
-        .build()
-        .unwrap();
-    let err = pool
+    let err = three_threads()
         .install(|| brdf::fit_samples(&samples, "red unmeasured", &settings))
         .unwrap_err();
     // Red's own error, as without the stop.
@@ -360,48 +382,16 @@ fn a_function_that_fails_stops_the_functions_after_it() {
 /// turn gives.
 #[test]
 fn the_functions_before_a_failed_one_settle_only_whether_they_fit() {
-    use std::sync::atomic::{AtomicUsize, Ordering};
-    use std::sync::Arc;
-    let m = CookTorranceGgx {
-        kd: [0.05, 0.1, 0.3],
-        f0: [0.04; 3],
-        alpha: 0.3,
-    };
-    let reduction = Reduction::default().with_resolution(24, 24);
-    let mut samples = reduction.sample(&m);
-    for row in &mut samples.rows {
-        (row.value[2], row.lo[2], row.hi[2]) = (f64::NAN, f64::NAN, f64::NAN);
-    }
-    let engine = rational_core::FitSettings::default()
-        .with_search(rational_core::Search::Staircase)
-        .with_coeff_range(2, 40)
-        .unwrap()
-        .with_widening(2.0, 1)
-        .unwrap();
-    let red_splits = Arc::new(AtomicUsize::new(0));
-    let count = red_splits.clone();
-    let settings = BrdfFitSettings::default()
-        .with_reduction(reduction)
-        .with_baselines(false)
-        .with_cap_rounds(0)
-        .unwrap()
-        .with_fit_settings(engine)
+    use std::sync::atomic::Ordering;
+    let (samples, settings, red_splits) = one_channel_unmeasured(2, 0, 1);
+    let settings = (settings.with_cap_rounds(0).unwrap())
         .with_rel_tol(0.003)
-        .unwrap()
-        .with_channel_progress(Arc::new(move |c, _| {
-            if c == 0 && count.fetch_add(1, Ordering::Relaxed) == 0 {
-                std::thread::sleep(std::time::Duration::from_millis(300));
-            }
-        }));
+        .unwrap();
     // Red alone: a fit, after every split of its sweep.
     brdf::fit_samples_channel(&samples, 0, &settings).unwrap();
     let alone = red_splits.swap(0, Ordering::Relaxed);
     assert!(alone > 10, "red alone solved {alone} splits");
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(3)
-        .build()
-        .unwrap();
-    let err = pool
+    let err = three_threads()
         .install(|| brdf::fit_samples(&samples, "blue unmeasured", &settings))
         .unwrap_err();
     match &err {

@@ -260,8 +260,8 @@ fn target_fits_widen_by_sqrt_2_at_most_twice() {
     );
 }
 
-/// A byte budget is never passed: fits over it are listed as such and not
-/// returned, and a tolerance whose fit passes it is followed by looser ones
+/// A byte budget is never passed: fits over it are listed as such (measured
+/// as fitted, no evaluation cut chosen) and not returned, and a tolerance whose fit passes it is followed by looser ones
 /// (tighter ones would only grow); each RGB channel is held to a third of
 /// it; a budget nothing fits in is an error that names it.
 #[test]
@@ -278,6 +278,8 @@ fn a_target_fit_stays_within_its_byte_budget() {
     for a in &bounded.tried {
         let over = a.result.is_some_and(|(bytes, _)| bytes > budget);
         assert_eq!(a.over_budget, over, "{bounded}");
+        // Over the budget at every cut: measured as fitted, no cut chosen.
+        assert!(!over || (a.cut.is_none() && !a.shell), "{bounded}");
     }
     assert!(bounded.tried[0].over_budget, "{bounded}");
     assert!(
@@ -287,7 +289,11 @@ fn a_target_fit_stays_within_its_byte_budget() {
     assert!(bounded.rel_tol > 0.16, "{bounded}");
     let text = bounded.to_string();
     assert!(text.contains(&format!("of at most {budget}")), "{text}");
-    assert!(text.contains("(over the byte budget)"), "{text}");
+    assert!(
+        text.contains("(over the byte budget), worse mean CIEDE2000")
+            && text.contains("as fitted (no evaluation cut or shell factor tried)"),
+        "{text}"
+    );
     // RGB channels carry the whole shape each: held to a third of the
     // budget, no fit passes it, and the first tolerance widens instead.
     let free_rgb = glossy_target_report(1e3, [6, 6, 4], 30);

@@ -25,13 +25,15 @@ pub struct TargetAttempt {
     /// widened. It says whether the luminance or the colour costs most.
     pub limiting: Option<char>,
     /// The evaluation cut chosen for this fit by the validation renders
-    /// (degrees; `None`: the whole hemisphere). See
+    /// (degrees; `None`: the whole hemisphere, or none tried when
+    /// [`Self::over_budget`]). See
     /// [`super::choose_evaluation_cut`].
     pub cut: Option<f64>,
     /// Whether a shell factor beyond that cut was chosen with it.
     pub shell: bool,
     /// Whether its bytes pass the byte budget ([`TargetBudget::bytes`]), so
-    /// that it could not be returned.
+    /// that it could not be returned. Its functions alone pass it then, and
+    /// it is measured as fitted: no evaluation cut or shell factor is tried.
     pub over_budget: bool,
     /// The elevation cut (degrees) the functions were fitted within;
     /// `None`: the whole hemisphere.
@@ -63,10 +65,14 @@ impl std::fmt::Display for TargetAttempt {
                 } else {
                     ""
                 },
-                self.cut.map_or(String::new(), |c| format!(
-                    " evaluated within {c} degrees{}",
-                    if self.shell { " with a shell factor" } else { "" }
-                )),
+                match (self.over_budget, self.cut) {
+                    (true, _) => " as fitted (no evaluation cut or shell factor tried)".to_string(),
+                    (false, Some(c)) => format!(
+                        " evaluated within {c} degrees{}",
+                        if self.shell { " with a shell factor" } else { "" }
+                    ),
+                    (false, None) => String::new(),
+                },
                 self.seconds
             ),
             None => write!(

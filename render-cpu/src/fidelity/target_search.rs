@@ -137,7 +137,7 @@ pub(super) struct Measured {
 
 /// The fit of `settings` at perceptual half-width `t`, measured and given
 /// its evaluation cut ([`choose_evaluation_cut`], within the byte budget
-/// when it can be); `Err(name)` names the first function (in the colour
+/// when it can be; none when its functions alone pass it); `Err(name)` names the first function (in the colour
 /// mode's order) with no fit within the coefficient budget.
 pub(super) fn fit_at(
     goal: &Goal,
@@ -175,31 +175,39 @@ pub(super) fn fit_at(
         }
     };
     let errors = validator.measure(Arc::new(crate::scene::FitInDomain::new(fitted.clone())))?;
-    let choice = choose_evaluation_cut(
-        validator,
-        table.as_ref(),
-        fitted,
-        errors,
-        Some(goal.target_de),
-        budget.bytes,
-    )?;
-    let bytes = choice.fitted.byte_size_f32();
+    // A fit whose functions alone pass the byte budget passes it at every
+    // cut, with or without a shell: it can never be returned, so its
+    // evaluation cut is not chosen (a validation per cut and layout).
+    let (fitted, errors, cut, shell) = if budget.passed_by(fitted.byte_size_f32()) {
+        (fitted, errors, None, false)
+    } else {
+        let choice = choose_evaluation_cut(
+            validator,
+            table.as_ref(),
+            fitted,
+            errors,
+            Some(goal.target_de),
+            budget.bytes,
+        )?;
+        (choice.fitted, choice.errors, choice.cut, choice.shell)
+    };
+    let bytes = fitted.byte_size_f32();
     let attempt = TargetAttempt {
         dims: settings.reduction().dims(),
         colour: settings.colour_mode(),
         rel_tol: t,
         seconds: started.elapsed().as_secs_f64(),
-        result: Some((bytes, choice.errors.worst_mean())),
+        result: Some((bytes, errors.worst_mean())),
         widened,
         limiting,
-        cut: choice.cut,
-        shell: choice.shell,
+        cut,
+        shell,
         over_budget: budget.passed_by(bytes),
         fitted_within: fitted_within(settings),
     };
     Ok(Ok(Measured {
-        fitted: choice.fitted,
-        errors: choice.errors,
+        fitted,
+        errors,
         attempt,
     }))
 }
