@@ -150,8 +150,21 @@ pub fn target_settings(engine: rational_core::FitSettings) -> brdf::BrdfFitSetti
 /// The elevation (degrees) within which a 3-D fit is also made when a
 /// byte budget leaves the target unreached: its functions spend nothing on
 /// the grazing cells (the shell factor and the clamp to the cut carry
-/// them), so the same intervals cost fewer coefficients.
+/// them), so the same intervals cost fewer coefficients. A lower cut is
+/// used where the whole hemisphere's best fit is evaluated within one
+/// ([`within_cut_degrees`]).
 pub const TARGET_CUT_DEGREES: f64 = 70.0;
+
+/// The elevation the 3-D fits within a cut are made within: the
+/// evaluation cut of the whole hemisphere's best fit (`best_cut`) where it
+/// is below [`TARGET_CUT_DEGREES`] (the renders showed that the fit's
+/// cells beyond it are better carried by the shell factor, so fitting them
+/// spends coefficients for nothing), else [`TARGET_CUT_DEGREES`]: a cut
+/// above it gives the grazing cells back coefficients that the renders
+/// showed are better spent within it.
+fn within_cut_degrees(best_cut: Option<f64>) -> f64 {
+    best_cut.map_or(TARGET_CUT_DEGREES, |c| c.min(TARGET_CUT_DEGREES))
+}
 
 /// What [`run_searches`] found: why the fit was chosen, the fit, every
 /// attempt and the slice's floor.
@@ -179,8 +192,9 @@ fn slice_floor(goal: &Goal) -> Result<SliceFloor, RenderError> {
 /// The searches of [`fit_to_target`] in turn, each only while the target is
 /// unreached: the 2-D slice (with [`TargetReduction::Auto`]), `base`'s 3-D
 /// grid, and with a byte budget, the 3-D grid fitted within
-/// [`TARGET_CUT_DEGREES`] (from the tightest tolerance the whole-hemisphere
-/// fits passed the budget at) and, when nothing is within the budget yet,
+/// [`TARGET_CUT_DEGREES`] or the lower cut the whole hemisphere's best fit
+/// is evaluated within ([`within_cut_degrees`]; from the tightest
+/// tolerance the whole-hemisphere fits passed the budget at) and, when nothing is within the budget yet,
 /// the 3-D grid with the budget split evenly between the functions; with
 /// [`TargetColour::Auto`], the first reduction in the other colour mode
 /// comes before that last one (see [`TargetColour::Auto`]). The slice is
@@ -237,6 +251,7 @@ fn run_searches(
         }
     }
     let (mut over_budget_at, mut best_at): (Vec<f64>, Option<f64>) = (Vec::new(), None);
+    let mut best_cut: Option<f64> = None;
     if !reached(&searches) {
         let s = search_tolerances(goal, base, &TOLERANCES, budget_s, false)?;
         over_budget_at = (s.tried.iter())
@@ -244,6 +259,7 @@ fn run_searches(
             .map(|a| a.rel_tol)
             .collect();
         best_at = s.best.as_ref().map(|m| m.attempt.rel_tol);
+        best_cut = s.best.as_ref().and_then(|m| m.attempt.cut);
         searches.push((
             in_mode(&format!("the {dims}-D fits"), base.colour_mode()),
             s,
@@ -253,13 +269,14 @@ fn run_searches(
         && base.reduction().max_elevation_deg >= 90.0;
     if let (Some(_), true, false) = (goal.budget.bytes, whole_3d, reached(&searches)) {
         let tolerances = within_cut_tolerances(&over_budget_at, best_at);
+        let within = within_cut_degrees(best_cut);
         let settings = base
             .clone()
-            .with_reduction(base.reduction().with_max_elevation(TARGET_CUT_DEGREES));
+            .with_reduction(base.reduction().with_max_elevation(within));
         let s = search_tolerances(goal, &settings, &tolerances, budget_s, false)?;
         searches.push((
             in_mode(
-                &format!("the {dims}-D fits within {TARGET_CUT_DEGREES} degrees"),
+                &format!("the {dims}-D fits within {within} degrees"),
                 base.colour_mode(),
             ),
             s,
@@ -347,7 +364,7 @@ fn lowest_error(searches: &[(String, Search)]) -> Option<usize> {
     (0..searches.len()).min_by(|&a, &b| searches[a].1.worst().total_cmp(&searches[b].1.worst()))
 }
 
-/// The tolerances of the search within [`TARGET_CUT_DEGREES`]: from the
+/// The tolerances of the search within a cut ([`within_cut_degrees`]): from the
 /// tightest at which the whole-hemisphere fits passed the byte budget
 /// (`over_budget_at`); when none did, from the tolerance of their best fit
 /// (`best_at`): fitted within the cut, a looser tolerance's fit has fewer
@@ -589,6 +606,20 @@ mod tests {
         assert_eq!(loosened, TOLERANCES.to_vec());
         // Best only when loosened for feasibility: every tolerance.
         assert_eq!(within_cut_tolerances(&[], Some(0.32)), TOLERANCES.to_vec());
+    }
+
+    /// The fits within a cut are made within the whole hemisphere's best
+    /// evaluation cut where it is below 70 degrees, else within 70.
+    #[test]
+    fn the_fits_within_a_cut_follow_a_lower_cut_of_the_whole_hemisphere() {
+        let cuts = [None, Some(65.0), Some(70.0), Some(75.0), Some(80.0)];
+        let c = TARGET_CUT_DEGREES;
+        // The cut is one of the inputs, never computed: compared bit for bit.
+        let bits = |v: [f64; 5]| v.map(f64::to_bits);
+        assert_eq!(
+            bits(cuts.map(within_cut_degrees)),
+            bits([c, 65.0, 70.0, c, c])
+        );
     }
 
     /// RGB follows luminance-chroma only where a chroma ratio, never the
