@@ -194,8 +194,9 @@ fn slice_floor(goal: &Goal) -> Result<SliceFloor, RenderError> {
 /// grid, and with a byte budget, the 3-D grid fitted within
 /// [`TARGET_CUT_DEGREES`] or the lower cut the whole hemisphere's best fit
 /// is evaluated within ([`within_cut_degrees`]; from the tightest
-/// tolerance the whole-hemisphere fits passed the budget at) and, when nothing is within the budget yet,
-/// the 3-D grid with the budget split evenly between the functions; with
+/// tolerance the whole-hemisphere fits passed the budget at) and, when
+/// nothing is within the budget yet, the 3-D grid with the budget split
+/// evenly between the functions; with
 /// [`TargetColour::Auto`], the first reduction in the other colour mode
 /// comes before that last one (see [`TargetColour::Auto`]). The slice is
 /// searched first only when the table seen through it ([`SliceFloor`])

@@ -137,8 +137,9 @@ pub(super) struct Measured {
 
 /// The fit of `settings` at perceptual half-width `t`, measured and given
 /// its evaluation cut ([`choose_evaluation_cut`], within the byte budget
-/// when it can be; none when its functions alone pass it); `Err(name)` names the first function (in the colour
-/// mode's order) with no fit within the coefficient budget.
+/// when it can be; none when its functions alone pass it); `Err(name)`
+/// names the first function (in the colour mode's order) with no fit
+/// within the coefficient budget.
 pub(super) fn fit_at(
     goal: &Goal,
     settings: &brdf::BrdfFitSettings,
