@@ -139,7 +139,8 @@ pub struct FitArgs {
     /// rendered beside the table on the two validation scenes (64 x 64
     /// pixels, a few seconds) and the report states the CIEDE2000 reached;
     /// with `--perceptual` it also chooses the evaluation cut (80, 75, 70
-    /// or 65 degrees, or the fit's own) and whether a shell factor carries
+    /// or 65 degrees, then 60 and 55 while the lowest does best, or the
+    /// fit's own) and whether a shell factor carries
     /// the table's luminance or colour beyond it (16 to 192 bytes, in the
     /// layouts of `brdf::SHELL_CHOICES`);
     /// with `--target-de`, the fewest bytes that reach the target.

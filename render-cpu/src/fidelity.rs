@@ -37,6 +37,7 @@ mod target_report;
 mod target_search;
 pub use cut::{
     choose_evaluation_cut, render_check_choosing_cut, CutChoice, CutTried, EVALUATION_CUTS,
+    LOWER_CUTS,
 };
 pub use split::{colour_split, ColourSplit};
 pub use target::{

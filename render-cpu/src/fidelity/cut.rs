@@ -15,6 +15,12 @@ use std::sync::Arc;
 /// only at the samples beyond the cut (the rest are the uncut fit's).
 pub const EVALUATION_CUTS: [f64; 4] = [80.0, 75.0, 70.0, 65.0];
 
+/// Cuts below [`EVALUATION_CUTS`], tried in turn while the lowest cut
+/// measured gives the best evaluation: the clear coats' slices keep
+/// improving below 65 degrees (docs/results/fidelity-2026-12-06-lower-cuts.md),
+/// and a fit whose best cut is higher pays nothing for them.
+pub const LOWER_CUTS: [f64; 2] = [60.0, 55.0];
+
 /// Samples whose directions are this much (degrees) inside a cut take the
 /// uncut fit's values: every evaluation path leaves them unmoved, in f32
 /// as in f64, and the shell factor is 1 there.
@@ -118,7 +124,8 @@ fn preferred(tried: &[CutTried], target_de: Option<f64>, max_bytes: Option<usize
 }
 
 /// A fit over the whole hemisphere (its reduction has no elevation cut)
-/// evaluated within the cut among none and [`EVALUATION_CUTS`], each
+/// evaluated within the cut among none, [`EVALUATION_CUTS`] and, in turn
+/// while the lowest cut measured does best, [`LOWER_CUTS`], each
 /// without and with a shell factor fitted to `table` beyond it
 /// ([`brdf::ShellFactor`], in each layout of [`SHELL_BIN_CHOICES`], and
 /// in the other layouts of [`SHELL_CHOICES`] at the cut that did best with
@@ -149,7 +156,7 @@ pub fn choose_evaluation_cut(
     target_de: Option<f64>,
     max_bytes: Option<usize>,
 ) -> Result<CutChoice, RenderError> {
-    let mut tried = vec![CutTried {
+    let tried = vec![CutTried {
         cut: None,
         shell: fitted.shell.is_some(),
         shell_layout: fitted.shell.as_ref().map(ShellFactor::layout),
@@ -159,7 +166,7 @@ pub fn choose_evaluation_cut(
     // (cut, the fit evaluated within it, whether that evaluation is still
     // to be measured): a fit with its own cut is measured already.
     let own = fitted.reduction.max_elevation_deg;
-    let within: Vec<(f64, FittedBrdf, bool)> = if own < 90.0 {
+    let mut within: Vec<(f64, FittedBrdf, bool)> = if own < 90.0 {
         if fitted.shell.is_some() {
             Vec::new()
         } else {
@@ -171,16 +178,6 @@ pub fn choose_evaluation_cut(
             .filter_map(|&degrees| Some((degrees, fitted.evaluated_within(degrees)?, true)))
             .collect()
     };
-    let material_error = |source| RenderError::Material {
-        name: table.name(),
-        source,
-    };
-    // Every variant equals `fitted` within its cut, where most samples
-    // lie: their values there come from one evaluation of `fitted` on each
-    // evaluation path (f32 or f64) a variant takes.
-    let base_fit = fitted.clone();
-    let mut bases: [Option<SampleValues>; 2] = [None, None];
-    let mut measured = vec![(fitted, errors)];
     // With several cuts, the layouts added to the luminance factors of
     // SHELL_BIN_CHOICES are measured at the cut whose evaluations did best
     // only: each cut costs a validation per layout.
@@ -190,48 +187,41 @@ pub fn choose_evaluation_cut(
     } else {
         SHELL_CHOICES.len()
     });
+    let mut evaluations = Evaluations {
+        validator,
+        table,
+        base_fit: fitted.clone(),
+        bases: [None, None],
+        max_bytes,
+        staged,
+        tried,
+        measured: vec![(fitted, errors)],
+    };
     for stage in 0..2 {
-        let jobs = stage_jobs(stage, &within, (first, more), &tried);
-        for (degrees, plain, shell_layout) in jobs {
-            // With one cut, a layout that passes the byte budget beside a
-            // fit within it can never be kept (`preferred` keeps
-            // evaluations within the budget when there is one): it is not
-            // measured. With several, every layout is measured, since the
-            // cut whose evaluations did best chooses the second stage's.
-            let shell_bytes = shell_layout.map_or(0, |l| l.byte_size_f32());
-            let fit_bytes = plain.byte_size_f32();
-            if !staged && max_bytes.is_some_and(|m| fit_bytes <= m && fit_bytes + shell_bytes > m) {
-                continue;
-            }
-            let variant = match shell_layout {
-                Some(layout) => {
-                    let shell =
-                        ShellFactor::fit_layout(table, plain, layout).map_err(material_error)?;
-                    plain.clone().with_shell(shell).map_err(material_error)?
+        for job in stage_jobs(stage, &within, (first, more), &evaluations.tried) {
+            evaluations.measure(job)?;
+        }
+        // Lower cuts while the lowest so far does best (whole-hemisphere
+        // fits only: a fit with its own cut keeps it).
+        if stage == 0 && own >= 90.0 {
+            while let Some(degrees) = next_lower_cut(&evaluations.tried, within.last().map(|w| w.0))
+            {
+                let Some(plain) = evaluations.base_fit.evaluated_within(degrees) else {
+                    break;
+                };
+                within.push((degrees, plain, true));
+                let added = &within[within.len() - 1..];
+                for job in stage_jobs(0, added, (first, more), &evaluations.tried) {
+                    evaluations.measure(job)?;
                 }
-                None => plain.clone(),
-            };
-            let cos_inside = (degrees - INSIDE_MARGIN_DEG).to_radians().cos();
-            let inside =
-                move |wi: brdf::Vec3, wo: brdf::Vec3| wi[2] >= cos_inside && wo[2] >= cos_inside;
-            let material = crate::FitInDomain::new(variant.clone());
-            let path = material.uses_f32();
-            let base = bases[usize::from(path)].get_or_insert_with(|| {
-                let on_path: Arc<dyn Brdf> =
-                    Arc::new(crate::FitInDomain::on_path(base_fit.clone(), path));
-                validator.sample_values(&on_path)
-            });
-            let errors = validator.measure_reusing(Arc::new(material), base, &inside)?;
-            tried.push(CutTried {
-                cut: Some(degrees),
-                shell: shell_layout.is_some(),
-                shell_layout,
-                bytes: variant.byte_size_f32(),
-                worst_mean_de: errors.worst_mean(),
-            });
-            measured.push((variant, errors));
+            }
         }
     }
+    let Evaluations {
+        tried,
+        mut measured,
+        ..
+    } = evaluations;
     let k = preferred(&tried, target_de, max_bytes);
     let (fitted, errors) = measured.swap_remove(k);
     Ok(CutChoice {
@@ -241,6 +231,105 @@ pub fn choose_evaluation_cut(
         errors,
         tried,
     })
+}
+
+/// The evaluations [`choose_evaluation_cut`] measured, in `tried` and
+/// `measured` (the same order), and what their measurements share.
+struct Evaluations<'a> {
+    validator: &'a Validator,
+    table: &'a dyn Brdf,
+    /// The fit as given: every variant equals it within its cut, where
+    /// most samples lie, so their values there come from one evaluation of
+    /// it on each evaluation path (f32 or f64) a variant takes (`bases`).
+    base_fit: FittedBrdf,
+    bases: [Option<SampleValues>; 2],
+    max_bytes: Option<usize>,
+    /// Several cuts are measured (the second stage's layouts at the best).
+    staged: bool,
+    tried: Vec<CutTried>,
+    measured: Vec<(FittedBrdf, RenderErrors)>,
+}
+
+impl Evaluations<'_> {
+    /// Measures `plain` (the fit within `degrees`) with the shell factor
+    /// of `shell_layout`, if any, fitted to the table beyond the cut.
+    fn measure(
+        &mut self,
+        (degrees, plain, shell_layout): (f64, &FittedBrdf, Option<ShellLayout>),
+    ) -> Result<(), RenderError> {
+        // With one cut, a layout that passes the byte budget beside a fit
+        // within it can never be kept (`preferred` keeps evaluations within
+        // the budget when there is one): it is not measured. With several,
+        // every layout is measured, since the cut whose evaluations did
+        // best chooses the second stage's.
+        let shell_bytes = shell_layout.map_or(0, |l| l.byte_size_f32());
+        let fit_bytes = plain.byte_size_f32();
+        if !self.staged
+            && self
+                .max_bytes
+                .is_some_and(|m| fit_bytes <= m && fit_bytes + shell_bytes > m)
+        {
+            return Ok(());
+        }
+        let material_error = |source| RenderError::Material {
+            name: self.table.name(),
+            source,
+        };
+        let variant = match shell_layout {
+            Some(layout) => {
+                let shell =
+                    ShellFactor::fit_layout(self.table, plain, layout).map_err(material_error)?;
+                plain.clone().with_shell(shell).map_err(material_error)?
+            }
+            None => plain.clone(),
+        };
+        let cos_inside = (degrees - INSIDE_MARGIN_DEG).to_radians().cos();
+        let inside =
+            move |wi: brdf::Vec3, wo: brdf::Vec3| wi[2] >= cos_inside && wo[2] >= cos_inside;
+        let material = crate::FitInDomain::new(variant.clone());
+        let path = material.uses_f32();
+        let (validator, base_fit) = (self.validator, &self.base_fit);
+        let base = self.bases[usize::from(path)].get_or_insert_with(|| {
+            let on_path: Arc<dyn Brdf> =
+                Arc::new(crate::FitInDomain::on_path(base_fit.clone(), path));
+            validator.sample_values(&on_path)
+        });
+        let errors = validator.measure_reusing(Arc::new(material), base, &inside)?;
+        self.tried.push(CutTried {
+            cut: Some(degrees),
+            shell: shell_layout.is_some(),
+            shell_layout,
+            bytes: variant.byte_size_f32(),
+            worst_mean_de: errors.worst_mean(),
+        });
+        self.measured.push((variant, errors));
+        Ok(())
+    }
+}
+
+/// The cut of the best evaluation within a cut among `tried` (the first
+/// between equal errors); `None` when none has a cut.
+fn best_cut(tried: &[CutTried]) -> Option<f64> {
+    tried
+        .iter()
+        .filter(|t| t.cut.is_some())
+        .min_by(|a, b| a.worst_mean_de.total_cmp(&b.worst_mean_de))
+        .and_then(|t| t.cut)
+}
+
+/// The next of [`LOWER_CUTS`] below `lowest` (the lowest cut measured),
+/// when the best evaluation of `tried` (the first between equal errors,
+/// the fit as given included) is within `lowest`: the error still falls
+/// as the cut comes down.
+fn next_lower_cut(tried: &[CutTried], lowest: Option<f64>) -> Option<f64> {
+    let lowest = lowest?;
+    let best = tried
+        .iter()
+        .min_by(|a, b| a.worst_mean_de.total_cmp(&b.worst_mean_de))?;
+    if best.cut != Some(lowest) {
+        return None;
+    }
+    LOWER_CUTS.iter().copied().find(|&c| c < lowest)
 }
 
 /// The evaluations of one stage of [`choose_evaluation_cut`]: at stage 0
@@ -266,11 +355,7 @@ fn stage_jobs<'a>(
             })
             .collect();
     }
-    let best = tried
-        .iter()
-        .filter(|t| t.cut.is_some())
-        .min_by(|a, b| a.worst_mean_de.total_cmp(&b.worst_mean_de))
-        .and_then(|t| t.cut);
+    let best = best_cut(tried);
     within
         .iter()
         .filter(|(degrees, _, _)| Some(*degrees) == best)
@@ -377,6 +462,45 @@ mod tests {
         assert!(wrong.images[1].pixels != right.images[1].pixels);
     }
 
+    /// A lower cut is tried only while the lowest cut measured gives the
+    /// best evaluation, the fit as given included, and only down to the
+    /// last of the lower cuts.
+    #[test]
+    fn lower_cuts_follow_while_the_lowest_cut_does_best() {
+        let t = |cut: Option<f64>, de: f64| CutTried {
+            cut,
+            shell: false,
+            shell_layout: None,
+            bytes: 100,
+            worst_mean_de: de,
+        };
+        let standard = [t(None, 3.0), t(Some(80.0), 2.5), t(Some(65.0), 2.0)];
+        let bits = |c: Option<f64>| c.map(f64::to_bits);
+        assert_eq!(
+            bits(next_lower_cut(&standard, Some(65.0))),
+            bits(Some(LOWER_CUTS[0]))
+        );
+        // A higher cut, or the whole hemisphere, does best: no lower cut.
+        let higher = [t(None, 3.0), t(Some(70.0), 1.5), t(Some(65.0), 2.0)];
+        assert!(next_lower_cut(&higher, Some(65.0)).is_none());
+        let whole = [t(None, 1.0), t(Some(65.0), 2.0)];
+        assert!(next_lower_cut(&whole, Some(65.0)).is_none());
+        // Equal errors: the first measured (the higher cut) is the best.
+        let tie = [t(None, 3.0), t(Some(70.0), 2.0), t(Some(65.0), 2.0)];
+        assert!(next_lower_cut(&tie, Some(65.0)).is_none());
+        // Each lower cut in turn, then none below the last.
+        let mut more = standard.to_vec();
+        more.push(t(Some(LOWER_CUTS[0]), 1.0));
+        assert_eq!(
+            bits(next_lower_cut(&more, Some(LOWER_CUTS[0]))),
+            bits(Some(LOWER_CUTS[1]))
+        );
+        let last = LOWER_CUTS[LOWER_CUTS.len() - 1];
+        more.push(t(Some(last), 0.5));
+        assert!(next_lower_cut(&more, Some(last)).is_none());
+        assert!(next_lower_cut(&more, None).is_none());
+    }
+
     fn on_path_f64(fit: &FittedBrdf) -> Arc<dyn Brdf> {
         Arc::new(crate::FitInDomain::on_path(fit.clone(), false))
     }
@@ -404,7 +528,20 @@ mod tests {
             SHELL_BIN_CHOICES.len(),
             SHELL_CHOICES.len() - SHELL_BIN_CHOICES.len(),
         );
-        let cuts = EVALUATION_CUTS.len();
+        // The standard cuts, then the lower ones in turn while the lowest
+        // did best.
+        let mut measured_cuts: Vec<f64> = Vec::new();
+        for c in choice.tried.iter().filter_map(|t| t.cut) {
+            if !measured_cuts.iter().any(|m| m.to_bits() == c.to_bits()) {
+                measured_cuts.push(c);
+            }
+        }
+        let standard = EVALUATION_CUTS.len();
+        let lower = &measured_cuts[standard..];
+        let bits = |v: &[f64]| v.iter().map(|c| c.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&measured_cuts[..standard]), bits(&EVALUATION_CUTS));
+        assert_eq!(bits(lower), bits(&LOWER_CUTS[..lower.len()]));
+        let cuts = measured_cuts.len();
         assert_eq!(choice.tried.len(), 1 + (1 + first) * cuts + more);
         assert_eq!(choice.shell, choice.fitted.shell.is_some());
         assert_eq!(

@@ -176,9 +176,12 @@ struct Searched {
 }
 
 /// The worse-scene error of the table seen through the 2-D slice
-/// ([`brdf::SliceView`]) within the smallest evaluation cut, the table
-/// itself beyond: about the least any slice fit renders at, since the
-/// slice's fits are evaluated within one of those cuts or none.
+/// ([`brdf::SliceView`]) within the smallest of
+/// [`super::EVALUATION_CUTS`], the table itself beyond: about the least
+/// any slice fit renders at, since the slice's fits are evaluated within
+/// one of those cuts or none (or within a lower cut of
+/// [`super::LOWER_CUTS`] where that one does best, which this floor, an
+/// ordering of the searches, leaves aside).
 fn slice_floor(goal: &Goal) -> Result<SliceFloor, RenderError> {
     let within_deg = super::EVALUATION_CUTS.iter().copied().fold(90.0, f64::min);
     let view = brdf::SliceView::new(goal.table.clone(), within_deg);
