@@ -165,11 +165,20 @@ def test_perceptual_fits_take_an_elevation_cut_only_when_asked(military_green):
     # cut its renders prefer, as `ratfit fit` does.
     checked = ratfit.fit_brdf(military_green, **dict(quick, render_check=True))
     choice = checked.report["evaluation_cut"]
-    # None, then four cuts, each without and with two shell factors, then
-    # four more shell layouts at the cut that did best.
-    assert len(choice["tried"]) == 17
-    assert sum(t["shell"] for t in choice["tried"]) == 12
-    more = choice["tried"][13:]
+    # None, then four cuts, each without and with two shell factors (and
+    # the lower cuts, 60 then 55 degrees, in turn while the lowest did
+    # best), then four more shell layouts at the cut that did best.
+    measured = []
+    for t in choice["tried"]:
+        if t["cut"] is not None and t["cut"] not in measured:
+            measured.append(t["cut"])
+    assert measured[:4] == [80.0, 75.0, 70.0, 65.0]
+    lower = measured[4:]
+    assert lower == [60.0, 55.0][:len(lower)]
+    stage_one = 1 + 3 * len(measured)
+    assert len(choice["tried"]) == stage_one + 4
+    assert sum(t["shell"] for t in choice["tried"]) == 2 * len(measured) + 4
+    more = choice["tried"][stage_one:]
     assert len({t["cut"] for t in more}) == 1
     assert all(t["shell_layout"]["spacing"] == "cosine" for t in more)
     chosen = json.loads(checked.to_json())["brdf"]["reduction"]["max_elevation_deg"]
