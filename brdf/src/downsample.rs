@@ -104,12 +104,12 @@ impl Brdf for DownsampledTable {
         if wi[2] <= 0.0 || wo[2] <= 0.0 {
             return [0.0; 3];
         }
-        let hd = HalfDiff::from_directions(wi, wo);
+        let [theta_h, theta_d, phi_d] = HalfDiff::isotropic_angles(wi, wo);
         let [nh, nd, np] = self.bins;
-        let u = (hd.theta_h.max(0.0) / (PI / 2.0)).sqrt();
+        let u = (theta_h.max(0.0) / (PI / 2.0)).sqrt();
         let (i, wi_) = cell_position(u, nh);
-        let (j, wj) = cell_position(hd.theta_d / (PI / 2.0), nd);
-        let (k, wk) = cell_position(hd.folded_phi_d() / PI, np);
+        let (j, wj) = cell_position(theta_d / (PI / 2.0), nd);
+        let (k, wk) = cell_position(crate::geometry::fold_phi_d(phi_d) / PI, np);
         let mut out = [0.0; 3];
         for (di, fi) in [(0, 1.0 - wi_), (1, wi_)] {
             for (dj, fj) in [(0, 1.0 - wj), (1, wj)] {
@@ -168,8 +168,8 @@ impl<B: Brdf> Brdf for SliceView<B> {
         if wi[2] < self.cos_within || wo[2] < self.cos_within {
             return self.material.eval(wi, wo);
         }
-        let hd = HalfDiff::from_directions(wi, wo);
-        let (si, so) = HalfDiff::pair_at([hd.theta_h, hd.theta_d, PI / 2.0]);
+        let [theta_h, theta_d, _] = HalfDiff::isotropic_angles(wi, wo);
+        let (si, so) = HalfDiff::pair_at([theta_h, theta_d, PI / 2.0]);
         self.material.eval(si, so)
     }
 

@@ -176,11 +176,14 @@ impl FittedBrdf {
     /// reciprocity, `theta_d` clamped to the fitted range (no extrapolation
     /// into the grazing cut).
     pub fn coordinates(&self, wi: Vec3, wo: Vec3) -> Vec<f64> {
-        let hd = HalfDiff::from_directions(wi, wo);
-        let td = hd.theta_d.min(self.reduction.max_theta_d_deg.to_radians());
-        self.reduction
-            .coordinates
-            .map(hd.theta_h, td, hd.folded_phi_d(), self.reduction.dims())
+        let [theta_h, theta_d, phi_d] = HalfDiff::isotropic_angles(wi, wo);
+        let td = theta_d.min(self.reduction.max_theta_d_deg.to_radians());
+        self.reduction.coordinates.map(
+            theta_h,
+            td,
+            crate::geometry::fold_phi_d(phi_d),
+            self.reduction.dims(),
+        )
     }
 
     /// Evaluates every channel in f64 and makes RGB by the colour mode;
@@ -203,6 +206,46 @@ impl FittedBrdf {
             }
             None => v,
         }
+    }
+
+    /// The functions' values at a pair above the surface (the lobe's
+    /// factors applied, before the colour mode makes RGB), the directions
+    /// moved onto the reduction's elevation cut when it has one: the part
+    /// of [`Brdf::eval`] that a shell factor does not change.
+    pub fn functions_within_cut(&self, wi: Vec3, wo: Vec3) -> [f64; 3] {
+        let cut = self.reduction.max_elevation_deg;
+        if cut < 90.0 {
+            let (sin_cut, cos_cut) = cut.to_radians().sin_cos();
+            return self.functions_at(
+                crate::geometry::clamp_elevation(wi, cos_cut, sin_cut),
+                crate::geometry::clamp_elevation(wo, cos_cut, sin_cut),
+            );
+        }
+        self.functions_at(wi, wo)
+    }
+
+    /// [`Brdf::eval`] at a pair above the surface from `functions`, its
+    /// [`FittedBrdf::functions_within_cut`], and `angles`, the pair's own
+    /// `[theta_h, theta_d]` (called only where a shell factor reads them):
+    /// the same value to the last bit, so that the evaluations of one fit
+    /// under several shell factors share those parts.
+    pub fn eval_from_parts(
+        &self,
+        wi: Vec3,
+        wo: Vec3,
+        functions: [f64; 3],
+        angles: impl FnOnce() -> [f64; 2],
+    ) -> [f64; 3] {
+        let v = functions;
+        self.finish(
+            match (&self.shell, self.reduction.max_elevation_deg < 90.0) {
+                (Some(shell), true) => {
+                    let k = shell.multipliers_given(wi, wo, self.mode, angles);
+                    [v[0] * k[0], v[1] * k[1], v[2] * k[2]]
+                }
+                _ => v,
+            },
+        )
     }
 
     /// Evaluates the fit at many direction pairs in parallel.
@@ -243,23 +286,11 @@ impl Brdf for FittedBrdf {
         if wi[2] <= 0.0 || wo[2] <= 0.0 {
             return [0.0; 3];
         }
-        let cut = self.reduction.max_elevation_deg;
-        if cut < 90.0 {
-            let (sin_cut, cos_cut) = cut.to_radians().sin_cos();
-            let (wi_cut, wo_cut) = (
-                crate::geometry::clamp_elevation(wi, cos_cut, sin_cut),
-                crate::geometry::clamp_elevation(wo, cos_cut, sin_cut),
-            );
-            let v = self.functions_at(wi_cut, wo_cut);
-            return self.finish(match &self.shell {
-                Some(shell) => {
-                    let k = shell.multipliers(wi, wo, self.mode);
-                    [v[0] * k[0], v[1] * k[1], v[2] * k[2]]
-                }
-                None => v,
-            });
-        }
-        self.finish(self.functions_at(wi, wo))
+        let v = self.functions_within_cut(wi, wo);
+        self.eval_from_parts(wi, wo, v, || {
+            let [theta_h, theta_d, _] = HalfDiff::isotropic_angles(wi, wo);
+            [theta_h, theta_d]
+        })
     }
 
     fn name(&self) -> String {

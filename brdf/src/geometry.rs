@@ -93,20 +93,54 @@ pub struct HalfDiff {
     pub phi_d: f64,
 }
 
+/// `phi_d` folded into `[0, pi]`: [`HalfDiff::folded_phi_d`] of an angle.
+pub fn fold_phi_d(phi_d: f64) -> f64 {
+    let p = phi_d.rem_euclid(2.0 * PI);
+    if p > PI {
+        2.0 * PI - p
+    } else {
+        p
+    }
+}
+
+/// The unit half vector of a pair and its `[theta_h, theta_d, phi_d]`:
+/// `wi` rotated by `-phi_h` about the normal and by `-theta_h` about `y`
+/// (Rusinkiewicz), with the rotations' sines and cosines taken from the
+/// half vector's components rather than from its angles (no `sin_cos`,
+/// as the f32 path does).
+fn half_and_angles(wi: Vec3, wo: Vec3) -> (Vec3, [f64; 3]) {
+    let h = normalize([wi[0] + wo[0], wi[1] + wo[1], wi[2] + wo[2]]);
+    let theta_h = elevation(h);
+    let s = (h[0] * h[0] + h[1] * h[1]).sqrt();
+    let (cp, sp) = if s > 0.0 {
+        (h[0] / s, h[1] / s)
+    } else {
+        (1.0, 0.0)
+    };
+    let a = [wi[0] * cp + wi[1] * sp, wi[1] * cp - wi[0] * sp, wi[2]];
+    let (ct, st) = (h[2], s);
+    let diff = [a[0] * ct - a[2] * st, a[1], a[0] * st + a[2] * ct];
+    let (theta_d, phi_d) = to_spherical(diff);
+    (h, [theta_h, theta_d, phi_d])
+}
+
 impl HalfDiff {
     /// From incident (`wi`) and outgoing (`wo`) unit directions.
     pub fn from_directions(wi: Vec3, wo: Vec3) -> Self {
-        let h = normalize([wi[0] + wo[0], wi[1] + wo[1], wi[2] + wo[2]]);
-        let (theta_h, phi_h) = to_spherical(h);
-        let tmp = rotate(wi, [0.0, 0.0, 1.0], -phi_h);
-        let diff = rotate(tmp, [0.0, 1.0, 0.0], -theta_h);
-        let (theta_d, phi_d) = to_spherical(diff);
+        let (h, [theta_h, theta_d, phi_d]) = half_and_angles(wi, wo);
         Self {
             theta_h,
-            phi_h,
+            phi_h: h[1].atan2(h[0]),
             theta_d,
             phi_d,
         }
+    }
+
+    /// `[theta_h, theta_d, phi_d]` of a pair, as [`HalfDiff::from_directions`]
+    /// computes them without `phi_h`, which an isotropic BRDF never reads
+    /// (and whose `atan2` is a sixth of the conversion's cost).
+    pub fn isotropic_angles(wi: Vec3, wo: Vec3) -> [f64; 3] {
+        half_and_angles(wi, wo).1
     }
 
     /// The direction pair at Rusinkiewicz angles `[theta_h, theta_d,
@@ -163,12 +197,7 @@ impl HalfDiff {
     /// instead assumes reciprocity, which measured tables do not have, and
     /// puts a seam where `phi_d` crosses 0.)
     pub fn folded_phi_d(self) -> f64 {
-        let p = self.phi_d.rem_euclid(2.0 * PI);
-        if p > PI {
-            2.0 * PI - p
-        } else {
-            p
-        }
+        fold_phi_d(self.phi_d)
     }
 }
 
@@ -195,6 +224,49 @@ mod tests {
                 );
             }
         }
+    }
+
+    /// The rotations taken from the half vector's components give the
+    /// angles the rotations by `phi_h` and `theta_h` themselves give
+    /// (Rusinkiewicz's construction, as the MERL reference code computes
+    /// it), and [`HalfDiff::isotropic_angles`] is
+    /// [`HalfDiff::from_directions`] without `phi_h`.
+    #[test]
+    fn half_vector_rotations_match_rotations_by_the_angles() {
+        let by_angles = |wi: Vec3, wo: Vec3| {
+            let h = normalize([wi[0] + wo[0], wi[1] + wo[1], wi[2] + wo[2]]);
+            let (theta_h, phi_h) = to_spherical(h);
+            let tmp = rotate(wi, [0.0, 0.0, 1.0], -phi_h);
+            let diff = rotate(tmp, [0.0, 1.0, 0.0], -theta_h);
+            let (theta_d, phi_d) = to_spherical(diff);
+            [theta_h, phi_h, theta_d, phi_d]
+        };
+        let mut worst = 0.0_f64;
+        for a in 0..12 {
+            for b in 0..12 {
+                for p in 0..8 {
+                    let wi = from_spherical(0.13 * a as f64, 0.3 * p as f64 - 1.0);
+                    let wo = from_spherical(0.13 * b as f64, 2.1 - 0.7 * p as f64);
+                    let hd = HalfDiff::from_directions(wi, wo);
+                    let want = by_angles(wi, wo);
+                    let got = [hd.theta_h, hd.phi_h, hd.theta_d, hd.phi_d];
+                    for (g, w) in got.iter().zip(&want) {
+                        // phi_d is undefined where theta_d vanishes.
+                        let d = (g - w).abs();
+                        let d = if want[2] < 1e-9 {
+                            0.0
+                        } else {
+                            d.min(2.0 * PI - d)
+                        };
+                        worst = worst.max(d);
+                    }
+                    let iso = HalfDiff::isotropic_angles(wi, wo);
+                    let same = [hd.theta_h, hd.theta_d, hd.phi_d].map(f64::to_bits);
+                    assert_eq!(iso.map(f64::to_bits), same);
+                }
+            }
+        }
+        assert!(worst < 1e-12, "{worst:e}");
     }
 
     #[test]

@@ -63,8 +63,8 @@ pub use fitting::{
     ChannelProgressFn, MAX_CAP_ROUNDS,
 };
 pub use geometry::{
-    clamp_elevation, cross, dot, elevation, from_spherical, normalize, rotate, to_spherical,
-    HalfDiff, Vec3,
+    clamp_elevation, cross, dot, elevation, fold_phi_d, from_spherical, normalize, rotate,
+    to_spherical, HalfDiff, Vec3,
 };
 pub use io::alta::AltaData;
 pub use io::cornell::{cie_xyz, spectrum_to_rgb, xyz_to_linear_srgb, ScatteredBrdf};

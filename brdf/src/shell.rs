@@ -487,14 +487,30 @@ impl ShellFactor {
     /// The multipliers of `mode`'s three functions at a pair: 1 when both
     /// directions are within the cut.
     pub fn multipliers(&self, wi: Vec3, wo: Vec3, mode: ColourMode) -> [f64; 3] {
+        self.multipliers_given(wi, wo, mode, || {
+            let [theta_h, theta_d, _] = HalfDiff::isotropic_angles(wi, wo);
+            [theta_h, theta_d]
+        })
+    }
+
+    /// [`ShellFactor::multipliers`] with the pair's `[theta_h, theta_d]`
+    /// from `angles` (called only beyond the cut): evaluations of one pair
+    /// under several shell factors compute its angles once.
+    pub fn multipliers_given(
+        &self,
+        wi: Vec3,
+        wo: Vec3,
+        mode: ColourMode,
+        angles: impl FnOnce() -> [f64; 2],
+    ) -> [f64; 3] {
         let cos_cut = self.cut_deg.to_radians().cos();
         if wi[2] >= cos_cut && wo[2] >= cos_cut {
             return [1.0; 3];
         }
-        let hd = HalfDiff::from_directions(wi, wo);
+        let [theta_h, theta_d] = angles();
         let cell = shell_cell(
-            hd.theta_h,
-            hd.theta_d,
+            theta_h,
+            theta_d,
             [self.n_theta_h, self.n_theta_d],
             self.spacing,
         );

@@ -31,6 +31,7 @@ use std::sync::Arc;
 use std::time::Instant;
 
 mod cut;
+mod fit_parts;
 mod split;
 mod target;
 mod target_report;

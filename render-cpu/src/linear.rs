@@ -24,6 +24,11 @@ use rayon::prelude::*;
 /// ([`LinearRender::term_values`]).
 pub(crate) type Inside = dyn Fn(Vec3, Vec3) -> bool + Sync;
 
+/// A term's value known without evaluating the material: given the term's
+/// index in recording order, its directions `(wi, wo)` and its evaluation
+/// path, `Some` value or `None` to evaluate it ([`LinearRender::term_values_with`]).
+pub(crate) type Known<'a> = dyn Fn(usize, Vec3, Vec3, Evaluation) -> Option<[f64; 3]> + Sync + 'a;
+
 /// Most bytes a recording may take (estimated before recording, from the
 /// pixels, samples and lights); larger renders are not recorded.
 pub const MAX_RECORD_BYTES: usize = 512 << 20;
@@ -212,6 +217,23 @@ impl LinearRender {
         material: &PreparedMaterial,
         reuse: Option<(&[[f64; 3]], &Inside)>,
     ) -> Vec<[f64; 3]> {
+        match reuse {
+            Some((values, inside)) => {
+                self.term_values_with(material, &|k, wi, wo, _| inside(wi, wo).then(|| values[k]))
+            }
+            None => self.term_values_with(material, &|_, _, _, _| None),
+        }
+    }
+
+    /// Each term's value under `material`, in recording order, evaluated
+    /// as the render evaluates it (single terms one by one, batched ones in
+    /// one batch per view) where `known` gives none (the caller vouches
+    /// that `material` evaluates to exactly what it gives).
+    pub(crate) fn term_values_with(
+        &self,
+        material: &PreparedMaterial,
+        known: &Known<'_>,
+    ) -> Vec<[f64; 3]> {
         let mut values = vec![[0.0; 3]; self.wi.len()];
         // Each pixel's terms are contiguous: one slice per pixel.
         let mut pixels: Vec<(usize, &mut [[f64; 3]])> =
@@ -233,11 +255,9 @@ impl LinearRender {
                     wi.clear();
                     at.clear();
                     for k in self.group_start[g]..self.group_start[g + 1] {
-                        if let Some((values, inside)) = reuse {
-                            if inside(self.wi[k], wo) {
-                                out[k - offset] = values[k];
-                                continue;
-                            }
+                        if let Some(v) = known(k, self.wi[k], wo, self.evaluation[k]) {
+                            out[k - offset] = v;
+                            continue;
                         }
                         match self.evaluation[k] {
                             Evaluation::Single => {
@@ -259,6 +279,23 @@ impl LinearRender {
             },
         );
         values
+    }
+
+    /// `f` of each term's directions `(wi, wo)` and evaluation path, in
+    /// recording order.
+    pub(crate) fn map_terms<T: Send>(
+        &self,
+        f: impl Fn(Vec3, Vec3, Evaluation) -> T + Sync,
+    ) -> Vec<T> {
+        let f = &f;
+        (0..self.group_wo.len())
+            .into_par_iter()
+            .flat_map_iter(|g| {
+                let wo = self.group_wo[g];
+                (self.group_start[g]..self.group_start[g + 1])
+                    .map(move |k| f(self.wi[k], wo, self.evaluation[k]))
+            })
+            .collect()
     }
 
     /// The image of term values ([`LinearRender::term_values`]): each

@@ -2,6 +2,7 @@
 //! elevation cut its validation renders prefer, without fitting the
 //! functions again, with or without a shell factor beyond the cut.
 
+use super::fit_parts::FitParts;
 use super::{RenderErrors, SampleValues, Validator, RENDER_CHECK};
 use crate::RenderError;
 use brdf::{Brdf, FittedBrdf, ShellFactor, ShellLayout, SHELL_BIN_CHOICES, SHELL_CHOICES};
@@ -192,6 +193,7 @@ pub fn choose_evaluation_cut(
         table,
         base_fit: fitted.clone(),
         bases: [None, None],
+        parts: None,
         max_bytes,
         staged,
         tried,
@@ -243,6 +245,8 @@ struct Evaluations<'a> {
     /// it on each evaluation path (f32 or f64) a variant takes (`bases`).
     base_fit: FittedBrdf,
     bases: [Option<SampleValues>; 2],
+    /// The f64 parts of the fit at the last cut measured on that path.
+    parts: Option<FitParts>,
     max_bytes: Option<usize>,
     /// Several cuts are measured (the second stage's layouts at the best).
     staged: bool,
@@ -294,7 +298,20 @@ impl Evaluations<'_> {
                 Arc::new(crate::FitInDomain::on_path(base_fit.clone(), path));
             validator.sample_values(&on_path)
         });
-        let errors = validator.measure_reusing(Arc::new(material), base, &inside)?;
+        let errors = if path {
+            validator.measure_reusing(Arc::new(material), base, &inside)?
+        } else {
+            // In f64, the evaluations at one cut share the fit's functions
+            // beyond it: only the shell factors differ.
+            let parts = match self.parts.take() {
+                Some(p) if p.cut_deg().to_bits() == degrees.to_bits() => p,
+                _ => FitParts::new(validator, plain, &inside),
+            };
+            let errors =
+                validator.measure_with_parts(Arc::new(material), &variant, base, &inside, &parts);
+            self.parts = Some(parts);
+            errors?
+        };
         self.tried.push(CutTried {
             cut: Some(degrees),
             shell: shell_layout.is_some(),
@@ -450,6 +467,38 @@ mod tests {
             }
         }
         assert_eq!(reused, 2 * 2 * EVALUATION_CUTS.len());
+        // In f64, the fit's parts beyond each cut, taken once, give every
+        // variant there (each shell layout) the render's values too.
+        let base = validator.sample_values(&on_path_f64(&fitted));
+        let mut shared = 0;
+        for degrees in EVALUATION_CUTS {
+            let plain = fitted.evaluated_within(degrees).unwrap();
+            let cos_inside = (degrees - INSIDE_MARGIN_DEG).to_radians().cos();
+            let inside =
+                move |wi: brdf::Vec3, wo: brdf::Vec3| wi[2] >= cos_inside && wo[2] >= cos_inside;
+            let parts = FitParts::new(&validator, &plain, &inside);
+            let shelled = SHELL_CHOICES.iter().map(|&layout| {
+                let shell = ShellFactor::fit_layout(&glossy, &plain, layout).unwrap();
+                plain.clone().with_shell(shell).unwrap()
+            });
+            for variant in std::iter::once(plain.clone()).chain(shelled) {
+                let whole = validator.measure(on_path_f64(&variant)).unwrap();
+                let fast = validator
+                    .measure_with_parts(on_path_f64(&variant), &variant, &base, &inside, &parts)
+                    .unwrap();
+                for (a, b) in whole.images.iter().zip(&fast.images) {
+                    let bits = |i: &crate::image::Image| {
+                        i.pixels
+                            .iter()
+                            .flat_map(|p| p.map(f32::to_bits))
+                            .collect::<Vec<_>>()
+                    };
+                    assert!(bits(a) == bits(b), "cut {degrees}");
+                }
+                shared += 1;
+            }
+        }
+        assert_eq!(shared, EVALUATION_CUTS.len() * (1 + SHELL_CHOICES.len()));
         // The uncut fit differs beyond a cut: reusing its values
         // everywhere would render another image.
         let base = validator.sample_values(&on_path_f64(&fitted));
