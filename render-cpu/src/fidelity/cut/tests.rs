@@ -152,13 +152,19 @@ fn on_path_f64(fit: &FittedBrdf) -> Arc<dyn Brdf> {
     Arc::new(crate::FitInDomain::on_path(fit.clone(), false))
 }
 
-#[test]
-fn the_cut_chosen_is_the_best_of_those_measured_and_cut_fits_are_kept() {
+/// The glossy fit's errors and its evaluation cut chosen with no target
+/// and no byte budget.
+fn whole_hemisphere_choice() -> (
+    brdf::BlinnPhong,
+    FittedBrdf,
+    Validator,
+    RenderErrors,
+    CutChoice,
+) {
     let (glossy, fitted, validator) = glossy_fit();
     let errors = validator
         .measure(Arc::new(crate::FitInDomain::new(fitted.clone())))
         .unwrap();
-    let whole = errors.worst_mean();
     let choice = choose_evaluation_cut(
         &validator,
         &glossy,
@@ -168,6 +174,13 @@ fn the_cut_chosen_is_the_best_of_those_measured_and_cut_fits_are_kept() {
         None,
     )
     .unwrap();
+    (glossy, fitted, validator, errors, choice)
+}
+
+#[test]
+fn the_cut_chosen_is_the_best_of_those_measured_and_cut_fits_are_kept() {
+    let (_, fitted, _, errors, choice) = whole_hemisphere_choice();
+    let whole = errors.worst_mean();
     // None and every cut measured, without and with each shell factor
     // on uniform luminance bins, and the other layouts at the best of
     // those cuts; the chosen one has the lowest error.
@@ -221,8 +234,19 @@ fn the_cut_chosen_is_the_best_of_those_measured_and_cut_fits_are_kept() {
     let cut_in_file = choice.fitted.reduction.max_elevation_deg;
     assert!((cut_in_file - choice.cut.unwrap_or(90.0)).abs() < 1e-12);
     assert_eq!(choice.fitted.channels, fitted.channels);
-    // A target every evaluation reaches takes the fewest bytes; one
-    // none reaches, the lowest error.
+}
+
+/// A target every evaluation reaches takes the fewest bytes, one none
+/// reaches the lowest error, and a byte budget no shell factor fits in
+/// keeps the fit without one.
+#[test]
+fn targets_and_byte_budgets_choose_among_the_evaluations() {
+    let (glossy, fitted, validator, errors, choice) = whole_hemisphere_choice();
+    let lowest = choice
+        .tried
+        .iter()
+        .map(|t| t.worst_mean_de)
+        .fold(f64::INFINITY, f64::min);
     let reached = choose_evaluation_cut(
         &validator,
         &glossy,
@@ -249,7 +273,6 @@ fn the_cut_chosen_is_the_best_of_those_measured_and_cut_fits_are_kept() {
     )
     .unwrap();
     assert!((missed.errors.worst_mean() - lowest).abs() < 1e-12);
-    // A byte budget no shell factor fits in keeps the fit without one.
     let budget = fitted.byte_size_f32();
     let small = choose_evaluation_cut(
         &validator,
@@ -268,7 +291,12 @@ fn the_cut_chosen_is_the_best_of_those_measured_and_cut_fits_are_kept() {
         .map(|t| t.worst_mean_de)
         .fold(f64::INFINITY, f64::min);
     assert!((small.errors.worst_mean() - plain_lowest).abs() < 1e-12);
-    // A fit that already has a cut keeps it, with or without the shell.
+}
+
+/// A fit that already has a cut keeps it, with or without the shell.
+#[test]
+fn a_fit_with_its_own_cut_keeps_it() {
+    let (glossy, fitted, validator) = glossy_fit();
     let mut within = fitted;
     within.reduction = within.reduction.with_max_elevation(75.0);
     let errors = validator
