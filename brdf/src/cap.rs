@@ -6,6 +6,7 @@
 use crate::fitting::BrdfFitSettings;
 use crate::geometry::HalfDiff;
 use crate::reduce::{Reduction, HORIZON_INSET_RAD};
+use crate::value_scale::ValueScale;
 use rational_core::{FitError, FitReport, Fitter, IntervalData, RationalFunction};
 use serde::{Deserialize, Serialize};
 use std::fmt;
@@ -173,12 +174,16 @@ struct CapScan {
 fn points_above_cap(
     grid: &[Vec<f64>],
     f: &RationalFunction,
+    scale: ValueScale,
     cap_at: &dyn Fn(&[f64]) -> f64,
 ) -> CapScan {
     let mut found: Vec<(f64, f64, &[f64])> = Vec::new();
     let (mut largest, mut non_finite) = (0.0_f64, 0usize);
     for x in grid {
-        let v = f.eval(x);
+        // The value without the exponent limit: the excesses rank the
+        // points, and an infinite one counts as not finite.
+        let r = f.eval(x);
+        let v = if scale.is_linear() { r } else { r.exp() };
         let cap = cap_at(x);
         let excess = if v.is_finite() {
             largest = largest.max(v / cap);
@@ -201,20 +206,28 @@ fn points_above_cap(
     }
 }
 
-/// `data` with `points` added as `[0, cap]` constraints, one cap each.
+/// `data` with `points` added as `[0, cap]` constraints, one cap each, on
+/// the data's `scale` (on the log scale `[cap / LOG_SPAN, cap]`,
+/// [`ValueScale::interval`]).
 fn with_cap_points(
     data: &IntervalData,
     points: Vec<f64>,
     caps: &[f64],
+    scale: ValueScale,
 ) -> Result<IntervalData, FitError> {
     let mut all = data.points().to_vec();
     all.extend(points);
     let mut lo = data.lo().to_vec();
     let mut hi = data.hi().to_vec();
     let mut values: Vec<f64> = (0..data.len()).map(|i| data.value(i)).collect();
-    lo.extend(std::iter::repeat_n(0.0, caps.len()));
-    hi.extend_from_slice(caps);
-    values.extend(caps.iter().map(|c| 0.5 * c));
+    for &cap in caps {
+        // Caps are positive (a multiple of a positive peak), so every scale
+        // has the interval.
+        let (a, b) = scale.interval(0.0, cap).unwrap_or((0.0, cap));
+        lo.push(a);
+        hi.push(b);
+        values.push(0.5 * (a + b));
+    }
     IntervalData::new(data.dim(), all, lo, hi)?.with_values(values)
 }
 
@@ -309,15 +322,16 @@ pub(crate) fn hold_below_cap(
     let mut augmented: Option<IntervalData> = None;
     // Infeasible at these intervals on fewer rows: infeasible in every refit.
     let mut known = report.proved_infeasible();
+    let value_scale = s.value_scale().of(s.colour_mode(), c);
     loop {
-        let scan = points_above_cap(&grid, &report.function, &cap_at);
+        let scan = points_above_cap(&grid, &report.function, value_scale, &cap_at);
         check.largest = scan.largest;
         check.non_finite = scan.non_finite;
         if scan.caps.is_empty() || check.refits == s.cap_rounds() {
             break;
         }
         let so_far = augmented.as_ref().or(accepted.as_ref()).unwrap_or(data);
-        let more = with_cap_points(so_far, scan.points, &scan.caps)?;
+        let more = with_cap_points(so_far, scan.points, &scan.caps, value_scale)?;
         match refit(&more, s, (report.n_p, report.n_q), &mut known) {
             Ok(r) => {
                 report = r;
@@ -408,7 +422,7 @@ mod tests {
             rational_core::Basis::new(rational_core::BasisFamily::Chebyshev, domain, 2).unwrap();
         let f = RationalFunction::new(basis, vec![5.0, 5.0], vec![1.0]).unwrap();
         let grid: Vec<Vec<f64>> = (0..10).map(|i| vec![i as f64]).collect();
-        let scan = points_above_cap(&grid, &f, &|_| 4.0);
+        let scan = points_above_cap(&grid, &f, ValueScale::Linear, &|_| 4.0);
         // f(x) = x exceeds 4.04 at x = 5..9; the largest ratio is 9 / 4.
         assert_eq!(scan.points, vec![9.0, 8.0, 7.0, 6.0, 5.0]);
         assert_eq!(scan.caps, vec![4.0; 5]);

@@ -5,6 +5,7 @@ use crate::cap::CapCheck;
 use crate::design::{ChannelBounds, PerceptualBounds};
 use crate::lobe::Lobe;
 use crate::reduce::Reduction;
+use crate::value_scale::ValueScale;
 use serde::{Deserialize, Serialize};
 use std::fmt;
 
@@ -85,6 +86,9 @@ pub struct BrdfFitReport {
     /// The lobe the functions multiply, when in use.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub lobe: Option<Lobe>,
+    /// What the functions' values stand for ([`ValueScale`]).
+    #[serde(default, skip_serializing_if = "ValueScale::is_linear")]
+    pub scale: ValueScale,
     /// The fit's ceiling on its RGB values ([`crate::FittedBrdf::ceiling`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub ceiling: Option<[f64; 3]>,
@@ -155,6 +159,17 @@ impl fmt::Display for BrdfFitReport {
                 f,
                 "  lobe times rational: the functions fit the table divided by Cook-Torrance GGX (kd {:.4?}, f0 {:.4?}, alpha {:.4}); errors below are of the product",
                 l.kd, l.f0, l.alpha
+            )?;
+        }
+        if !self.scale.is_linear() {
+            writeln!(
+                f,
+                "  log scale ({}): {} the logarithm of its value, exp(p / q), fitted to the logarithms of its intervals; errors below are of the value",
+                self.scale,
+                match self.scale {
+                    ValueScale::LogLight => "each function that carries light (each channel, or the luminance; chroma ratios stay linear) is",
+                    _ => "each function is",
+                }
             )?;
         }
         if !self.degree_weights.is_empty() {

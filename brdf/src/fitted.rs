@@ -6,6 +6,7 @@ use crate::geometry::{HalfDiff, Vec3};
 use crate::lobe::Lobe;
 use crate::reduce::Reduction;
 use crate::shell::ShellFactor;
+use crate::value_scale::ValueScale;
 use crate::{Brdf, BrdfError};
 use rational_core::RationalFunction;
 use rayon::prelude::*;
@@ -24,6 +25,10 @@ pub struct FittedBrdf {
     /// What the three functions are (RGB unless stated).
     #[serde(default, skip_serializing_if = "ColourMode::is_rgb")]
     pub mode: ColourMode,
+    /// What each function's value stands for: the value itself, or its
+    /// logarithm ([`ValueScale`]).
+    #[serde(default, skip_serializing_if = "ValueScale::is_linear")]
+    pub scale: ValueScale,
     /// The analytic lobe each function multiplies (the lobe-times-rational
     /// representation), when there is one.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -61,6 +66,8 @@ struct FittedSpec {
     #[serde(default)]
     mode: ColourMode,
     #[serde(default)]
+    scale: ValueScale,
+    #[serde(default)]
     lobe: Option<Lobe>,
     #[serde(default)]
     ceiling: Option<[f64; 3]>,
@@ -76,6 +83,7 @@ impl TryFrom<FittedSpec> for FittedBrdf {
             reduction: s.reduction,
             channels: s.channels,
             mode: s.mode,
+            scale: s.scale,
             lobe: s.lobe,
             ceiling: s.ceiling,
             shell: s.shell,
@@ -191,14 +199,20 @@ impl FittedBrdf {
     /// and values above the ceiling to it. A fit with a lobe needs the
     /// directions: see [`Brdf::eval`].
     pub fn eval_coords(&self, x: &[f64]) -> [f64; 3] {
-        self.finish([0, 1, 2].map(|c| self.channels[c].eval(x)))
+        self.finish(self.function_values(x))
+    }
+
+    /// The three functions' values at fitting coordinates `x`, on the
+    /// linear scale (a log-scale function's `exp`), before any lobe.
+    pub fn function_values(&self, x: &[f64]) -> [f64; 3] {
+        let v = [0, 1, 2].map(|c| self.channels[c].eval(x));
+        self.scale.values(self.mode, v)
     }
 
     /// The functions' values at a direction pair above the surface (the
     /// lobe's factors applied), before the colour mode makes RGB.
     fn functions_at(&self, wi: Vec3, wo: Vec3) -> [f64; 3] {
-        let x = self.coordinates(wi, wo);
-        let v = [0, 1, 2].map(|c| self.channels[c].eval(&x));
+        let v = self.function_values(&self.coordinates(wi, wo));
         match &self.lobe {
             Some(lobe) => {
                 let f = lobe.factors(wi, wo, self.mode);

@@ -9,6 +9,7 @@ use crate::geometry::HalfDiff;
 use crate::lobe::Lobe;
 use crate::no_fit::NoFitMemo;
 use crate::reduce::{Reduction, Samples};
+use crate::value_scale::ValueScale;
 use crate::{Brdf, BrdfError};
 use rational_core::{FitSettings, Fitter, IntervalData, Progress, RationalFunction, SharedDesign};
 use rayon::prelude::*;
@@ -26,6 +27,7 @@ pub struct BrdfFitSettings {
     baselines: bool,
     design: Option<PerceptualBounds>,
     mode: ColourMode,
+    scale: ValueScale,
     lobe: Option<Lobe>,
     cap_rounds: usize,
     channel_progress: Option<ChannelProgress>,
@@ -63,6 +65,7 @@ impl Default for BrdfFitSettings {
             baselines: true,
             design: None,
             mode: ColourMode::Rgb,
+            scale: ValueScale::Linear,
             lobe: None,
             cap_rounds: 2,
             channel_progress: None,
@@ -155,6 +158,19 @@ impl BrdfFitSettings {
     pub fn with_colour_mode(mut self, mode: ColourMode) -> Self {
         self.mode = mode;
         self
+    }
+
+    /// Fit each function on `scale` (default linear): on the log scale a
+    /// function is the logarithm of its value and fits the logarithms of
+    /// the intervals, the same bounds on the value ([`ValueScale`]).
+    pub fn with_value_scale(mut self, scale: ValueScale) -> Self {
+        self.scale = scale;
+        self
+    }
+
+    /// What the functions' values stand for ([`ValueScale`]).
+    pub fn value_scale(&self) -> ValueScale {
+        self.scale
     }
 
     /// Fit the ratio of the data to `lobe` instead of the data (the
@@ -465,6 +481,7 @@ fn assemble(
         reduction: settings.reduction,
         channels,
         mode: settings.mode,
+        scale: settings.scale,
         lobe: settings.lobe,
         ceiling: ceiling(peaks, settings, &reports),
         shell: None,
@@ -489,7 +506,11 @@ fn assemble(
             let lobe = settings
                 .lobe
                 .map_or(1.0, |l| l.factors_at(row.angles, settings.mode)[c]);
-            let e = ((fitted.channels[c].eval(&x) * lobe).max(0.0) / row.value[c] - 1.0).abs();
+            let value = settings
+                .scale
+                .of(settings.mode, c)
+                .value(fitted.channels[c].eval(&x));
+            let e = ((value * lobe).max(0.0) / row.value[c] - 1.0).abs();
             max = max.max(e);
             sum += e;
             n += 1;
@@ -511,6 +532,7 @@ fn assemble(
             .map(|b| b.weights().to_vec())
             .unwrap_or_default(),
         lobe: settings.lobe,
+        scale: settings.scale,
         ceiling: fitted.ceiling,
         channels: reports,
         seconds: 0.0,
@@ -657,6 +679,9 @@ fn fit_channel(
     } else {
         data
     };
+    // On the log scale the function fits the logarithms of the intervals.
+    let scale = s.scale.of(s.mode, c);
+    let data = scale.data(&data)?;
     let engine = match &s.channel_progress {
         Some(ChannelProgress(cb)) => {
             let cb = cb.clone();
@@ -677,7 +702,7 @@ fn fit_channel(
     };
     let f = report.function.clone();
     let errors = SampleErrors::of(samples, c, &used, rel_tol, &measured_lo, |k| {
-        f.eval(data.point(k)) * factors[k]
+        scale.value(f.eval(data.point(k))) * factors[k]
     });
     let rep = ChannelReport {
         channel,
@@ -701,7 +726,12 @@ fn fit_channel(
         cap: cap_check,
         // The baselines divide by the value: plain relative intervals only
         // (the fidelity benchmark compares the analytic peer by its renders).
-        baselines: if s.baselines && s.design.is_none() && s.mode.is_rgb() && s.lobe.is_none() {
+        baselines: if s.baselines
+            && s.design.is_none()
+            && s.mode.is_rgb()
+            && s.lobe.is_none()
+            && s.scale.is_linear()
+        {
             vec![
                 crate::baseline::polynomial(
                     &data,

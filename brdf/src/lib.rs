@@ -42,6 +42,7 @@ mod material;
 mod no_fit;
 mod reduce;
 mod shell;
+mod value_scale;
 
 pub use analytic::{schlick, AshikhminShirley, BlinnPhong, CookTorranceGgx, Lambert};
 pub use cap::CapCheck;
@@ -81,3 +82,4 @@ pub use shell::{
     ShellColour, ShellFactor, ShellLayout, ThetaDSpacing, DEFAULT_SHELL_BINS, MAX_SHELL_BINS,
     MAX_SHELL_FACTOR, SHELL_BIN_CHOICES, SHELL_CHOICES,
 };
+pub use value_scale::{ValueScale, LOG_EXPONENT_LIMIT, LOG_SPAN};

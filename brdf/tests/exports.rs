@@ -4,7 +4,7 @@ use brdf::shader::{shader_source, shader_source_named, Language};
 use brdf::{
     compact::to_f32, fit_brdf, from_spherical, BatchedFit, BlinnPhong, Brdf, BrdfFitSettings,
     ColourMode, CompactBrdf, CookTorranceGgx, Coordinates, FittedBrdf, Lobe, Reduction,
-    ReductionKind, ShellColour, ShellFactor, ShellLayout, ThetaDSpacing,
+    ReductionKind, ShellColour, ShellFactor, ShellLayout, ThetaDSpacing, ValueScale,
 };
 
 fn fits() -> Vec<FittedBrdf> {
@@ -93,6 +93,35 @@ fn fits() -> Vec<FittedBrdf> {
             out.push(within.with_shell(shell).unwrap());
         }
     }
+    // Functions on the log scale, in both colour modes, every function or
+    // the luminance alone (one with a lobe, one with a shell): every
+    // evaluator and export takes the same `exp` of the same functions.
+    for (mode, lobe, scale) in [
+        (ColourMode::Rgb, None, ValueScale::Log),
+        (
+            ColourMode::LuminanceChroma,
+            Some(lobe),
+            ValueScale::LogLight,
+        ),
+        (ColourMode::LuminanceChroma, None, ValueScale::Log),
+    ] {
+        let s = BrdfFitSettings::default()
+            .with_reduction(
+                Reduction::default()
+                    .with_resolution(24, 24)
+                    .whole_hemisphere(),
+            )
+            .with_colour_mode(mode)
+            .with_lobe(lobe)
+            .with_value_scale(scale);
+        let (f, _) = fit_brdf(&m, &s).unwrap();
+        assert_eq!(f.scale, scale);
+        out.push(f);
+    }
+    let log = out.len() - 1;
+    let within = out[log].evaluated_within(60.0).unwrap();
+    let shell = ShellFactor::fit_layout(&m, &within, layout.cosine()).unwrap();
+    out.push(within.with_shell(shell).unwrap());
     out
 }
 
@@ -109,8 +138,8 @@ fn pairs(n: usize) -> Vec<([f64; 3], [f64; 3])> {
         .collect()
 }
 
-/// Basis length and condition number of evaluating channel `ch`'s `p / q`
-/// at `x`: the factor by which rounding of the coordinates, recurrences
+/// Basis length and condition number of evaluating channel `ch`'s value
+/// (`p / q`, or its `exp` on the log scale) at `x`: the factor by which rounding of the coordinates, recurrences
 /// and sums grows in the value.
 fn conditioning(f: &FittedBrdf, ch: usize, x: &[f64]) -> (usize, f64) {
     let r = &f.channels[ch];
@@ -121,7 +150,13 @@ fn conditioning(f: &FittedBrdf, ch: usize, x: &[f64]) -> (usize, f64) {
     let (p, q) = r.eval_parts(x);
     let kappa = sum_abs(r.numerator()) / p.abs().max(1e-300)
         + sum_abs(r.denominator()) / q.abs().max(1e-300);
-    (n, kappa)
+    // On the log scale a relative error e in r is an error e |r| in
+    // ln(value): the value's relative error grows by |r|.
+    let gain = match f.scale.of(f.mode, ch) {
+        ValueScale::Log => (p / q).abs().max(1.0),
+        _ => 1.0,
+    };
+    (n, kappa * gain)
 }
 
 #[test]
@@ -441,6 +476,11 @@ fn alta_export_reads_back_and_evaluates_the_same() {
             assert!(e.contains("luminance-chroma"), "{e}");
             continue;
         }
+        if !f.scale.is_linear() {
+            let e = exported.unwrap_err().to_string();
+            assert!(e.contains("logarithms"), "{e}");
+            continue;
+        }
         if f.reduction.coordinates != Coordinates::Radians {
             let e = exported.unwrap_err().to_string();
             assert!(e.contains("radians"), "{e}");
@@ -482,6 +522,7 @@ fn the_ceiling_bounds_every_evaluation_path() {
         reduction: Reduction::default().whole_hemisphere(),
         channels: vec![channel.clone(), channel.clone(), channel],
         mode: ColourMode::Rgb,
+        scale: brdf::ValueScale::Linear,
         lobe: None,
         ceiling: Some(ceiling),
         shell: None,

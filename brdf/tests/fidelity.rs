@@ -5,7 +5,8 @@ use brdf::baseline::fit_ggx;
 use brdf::fidelity::{hemisphere_errors, HemisphereSettings};
 use brdf::{
     fit_brdf, BlinnPhong, Brdf, BrdfFitSettings, ColourMode, DownsampledTable, Lobe, MerlBrdf,
-    PerceptualBounds, Reduction, ReductionKind, ShellFactor, TabulateOptions, DEFAULT_SHELL_BINS,
+    PerceptualBounds, Reduction, ReductionKind, ShellFactor, TabulateOptions, ValueScale,
+    DEFAULT_SHELL_BINS,
 };
 use rational_core::{FitSettings, Search};
 
@@ -84,6 +85,17 @@ fn every_representation_is_bounded_on_the_whole_hemisphere() {
     assert!(luminance.held(), "{luminance:?}");
     eprintln!("{report}");
     assert!(with_lobe.lobe.is_some());
+    // The luminance on the log scale: exp(p / q) grows fast where p / q
+    // overshoots between samples, which the cap check (on the value) and
+    // the ceiling must hold.
+    let log_settings = settings
+        .clone()
+        .with_colour_mode(ColourMode::LuminanceChroma)
+        .with_value_scale(ValueScale::Log);
+    let (log, report) = fit_brdf(&table, &log_settings).unwrap();
+    assert!(report.channels.iter().all(|c| c.verified));
+    assert!(report.channels[0].cap.unwrap().held(), "{report}");
+    assert_eq!(log.scale, ValueScale::Log);
     let hemisphere = HemisphereSettings {
         pairs: 6000,
         grid: [48, 48, 24],
@@ -94,9 +106,10 @@ fn every_representation_is_bounded_on_the_whole_hemisphere() {
         .clone()
         .with_shell(ShellFactor::fit(&table, &within, DEFAULT_SHELL_BINS).unwrap())
         .unwrap();
-    let reps: [(&str, &dyn Brdf); 4] = [
+    let reps: [(&str, &dyn Brdf); 5] = [
         ("rational", &fitted),
         ("lobe x rational", &with_lobe),
+        ("rational on the log scale", &log),
         ("rational within 70 degrees x shell factor", &shelled),
         ("table", &down),
     ];

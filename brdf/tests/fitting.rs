@@ -3,7 +3,7 @@
 
 use brdf::{
     fit_brdf, from_spherical, BlinnPhong, Brdf, BrdfFitSettings, CookTorranceGgx, Coordinates,
-    FittedBrdf, Reduction, ReductionKind,
+    FittedBrdf, Reduction, ReductionKind, ValueScale,
 };
 
 fn settings(r: Reduction) -> BrdfFitSettings {
@@ -404,4 +404,64 @@ fn the_functions_before_a_failed_one_settle_only_whether_they_fit() {
         settled <= 1 && settled < alone,
         "red solved {settled} splits of its search after blue failed ({alone} alone)"
     );
+}
+
+#[test]
+// The value is the same computation as `exp` of the function, bit for bit.
+#[allow(clippy::float_cmp)]
+fn a_fit_on_the_log_scale_holds_the_same_intervals_on_the_value() {
+    // A sharp lobe: its values span orders of magnitude over theta_h.
+    let m = CookTorranceGgx {
+        kd: [0.02, 0.05, 0.1],
+        f0: [0.04; 3],
+        alpha: 0.08,
+    };
+    let r = Reduction::default().with_resolution(40, 40);
+    let fit_on = |scale| fit_brdf(&m, &settings(r).with_value_scale(scale)).unwrap();
+    let (log, report) = fit_on(ValueScale::Log);
+    let (linear, linear_report) = fit_on(ValueScale::Linear);
+    assert_eq!(
+        (log.scale, linear.scale),
+        (ValueScale::Log, ValueScale::Linear)
+    );
+    assert!(report.to_string().contains("log scale"), "{report}");
+    for c in &report.channels {
+        assert!(c.verified, "{report}");
+        // Of the value, exp(p / q), against the table: the same bound as on
+        // the linear scale.
+        assert!(c.max_rel <= 0.05 * (1.0 + 1e-9), "{report}");
+    }
+    // At every sample above the noise floor the value is exp of the
+    // function, within the 5% interval.
+    let samples = r.sample(&m);
+    let mut checked = 0;
+    for row in samples.rows.iter().filter(|r| !r.grazing) {
+        let v = log.eval_coords(&row.point);
+        for c in 0..3 {
+            let floor = report.channels[c].noise_floor_abs / 0.05;
+            if row.value[c] > floor {
+                let exact = log.channels[c].eval(&row.point).exp();
+                assert_eq!(v[c], exact.min(log.ceiling.map_or(f64::MAX, |k| k[c])));
+                assert!((v[c] / row.value[c] - 1.0).abs() <= 0.05 * (1.0 + 1e-9));
+                checked += 1;
+            }
+        }
+    }
+    assert!(checked > 1000, "{checked}");
+    // The log scale follows the lobe with fewer coefficients.
+    assert!(
+        log.coefficients() < linear.coefficients(),
+        "log {} vs linear {} coefficients ({linear_report})",
+        log.coefficients(),
+        linear.coefficients()
+    );
+    // It is saved as such, and a linear fit's file has no `scale` field.
+    let json = serde_json::to_string(&log).unwrap();
+    assert!(json.contains("\"scale\":\"log\""), "{json}");
+    assert_eq!(serde_json::from_str::<FittedBrdf>(&json).unwrap(), log);
+    assert!(!serde_json::to_string(&linear)
+        .unwrap()
+        .contains("\"scale\""));
+    let edited = json.replace("\"scale\":\"log\"", "\"scale\":\"exp\"");
+    assert!(serde_json::from_str::<FittedBrdf>(&edited).is_err());
 }

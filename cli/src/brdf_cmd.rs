@@ -126,6 +126,17 @@ pub struct FitArgs {
     /// render error on the materials measured; docs/results/fidelity.md).
     #[arg(long)]
     colour: Option<brdf::ColourMode>,
+    /// What each fitted function is: the value (linear), its natural
+    /// logarithm (log: the value is `exp(p / q)`, positive everywhere, and
+    /// a lobe spanning orders of magnitude is a smooth bump), or the
+    /// logarithm for the functions that carry light alone (log-light: the
+    /// channels, or the luminance; chroma ratios linear). The intervals
+    /// bound the value the same way on every scale. Default: linear; with
+    /// `--target-de`, the whole hemisphere's fits on the log scale and the
+    /// searches after them linear (the validation renders choose), which
+    /// giving `--values` replaces by that scale in every search.
+    #[arg(long)]
+    values: Option<brdf::ValueScale>,
     /// Lobe times rational: fit a Cook-Torrance GGX lobe to the table
     /// first (several starts, log error), then fit the ratio of the table
     /// to the lobe, which is smooth where the lobe has the right shape
@@ -245,6 +256,7 @@ pub fn fit_to_json(args: &FitArgs) -> Result<serde_json::Value> {
         .with_rel_tol(args.rel_tol)?
         .with_noise_floor(args.noise_floor)?
         .with_colour_mode(args.colour.unwrap_or_default())
+        .with_value_scale(args.values.unwrap_or_default())
         .with_cap_rounds(args.cap_rounds)?
         .with_fit_settings(fit_settings);
     if let Some(bar) = crate::progress::channel_bar(args.colour.unwrap_or_default().names()) {
@@ -383,6 +395,9 @@ fn run_fit_target(
         .with_colour_mode(colour)
         .with_lobe(args.lobe.then(|| brdf::Lobe::fit(material.as_ref())))
         .with_cap_rounds(args.cap_rounds)?;
+    if let Some(scale) = args.values {
+        settings = settings.with_value_scale(scale);
+    }
     // The functions are numbered when the search may change colour mode.
     let labels = match args.colour {
         Some(c) => c.names(),
@@ -399,12 +414,19 @@ fn run_fit_target(
         None => render_cpu::fidelity::TargetColour::Auto,
         Some(_) => render_cpu::fidelity::TargetColour::Fixed,
     };
+    let choices = render_cpu::fidelity::TargetChoices {
+        reduction: mode,
+        colour: colour_choice,
+        scale: match args.values {
+            None => render_cpu::fidelity::TargetScale::Auto,
+            Some(_) => render_cpu::fidelity::TargetScale::Fixed,
+        },
+    };
     let fitted = render_cpu::fidelity::fit_to_target(
         material.clone(),
         target,
         &settings,
-        mode,
-        colour_choice,
+        choices,
         render_cpu::fidelity::ValidationSettings::default(),
         render_cpu::fidelity::TargetBudget::seconds(args.time_budget).with_bytes(args.max_bytes),
     );

@@ -64,6 +64,7 @@ BRDF_OPTIONS = (
     "perceptual",
     "cap_rounds",
     "colour",
+    "values",
     "lobe",
     "render_check",
 )

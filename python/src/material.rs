@@ -11,7 +11,8 @@ use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict, PyTuple};
 use render_cpu::fidelity::{
-    fit_to_target, TargetBudget, TargetColour, TargetReduction, ValidationSettings,
+    fit_to_target, TargetBudget, TargetChoices, TargetColour, TargetReduction, TargetScale,
+    ValidationSettings,
 };
 use std::path::Path;
 use std::sync::Arc;
@@ -158,12 +159,20 @@ pub fn fit_brdf(
                 None => TargetColour::Auto,
                 Some(_) => TargetColour::Fixed,
             };
+            let scale = match o.values {
+                None => TargetScale::Auto,
+                Some(_) => TargetScale::Fixed,
+            };
+            let choices = TargetChoices {
+                reduction: mode,
+                colour,
+                scale,
+            };
             let (fitted, report) = fit_to_target(
                 table.clone(),
                 target,
                 &settings,
-                mode,
-                colour,
+                choices,
                 ValidationSettings::default(),
                 TargetBudget::seconds(o.time_budget).with_bytes(o.max_bytes),
             )
@@ -328,7 +337,8 @@ impl FittedMaterial {
     }
 
     /// The three fitted functions (luminance and two ratios in the
-    /// luminance-chroma mode), as bare `RationalFit`s.
+    /// luminance-chroma mode), as bare `RationalFit`s: on the log scale
+    /// (`value_scale == "log"`) each is the logarithm of its value.
     #[getter]
     fn channels(&self) -> Vec<RationalFit> {
         self.fitted
@@ -336,6 +346,13 @@ impl FittedMaterial {
             .iter()
             .map(|f| RationalFit::bare(f.clone()))
             .collect()
+    }
+
+    /// What each function's value stands for: `"linear"` (the value) or
+    /// `"log"` (its natural logarithm).
+    #[getter]
+    fn value_scale(&self) -> String {
+        self.fitted.scale.to_string()
     }
 
     /// The material's name.

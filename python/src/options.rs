@@ -96,6 +96,8 @@ pub(crate) struct BrdfOptions {
     pub perceptual: bool,
     pub cap_rounds: usize,
     pub colour: Option<String>,
+    /// `"linear"` or `"log"` ([`brdf::ValueScale`]).
+    pub values: Option<String>,
     pub lobe: bool,
     pub render_check: bool,
 }
@@ -124,6 +126,7 @@ impl Default for BrdfOptions {
             perceptual: false,
             cap_rounds: 2,
             colour: None,
+            values: None,
             lobe: false,
             render_check: true,
         }
@@ -133,7 +136,7 @@ impl Default for BrdfOptions {
 /// The option names, for the error that refuses another.
 const OPTION_NAMES: &str = "format, dims, spread, coords, rel_tol, noise_floor, max_coeffs, \
      max_theta_d, max_elevation, resolution, backend, poles, search, max_widenings, target_de, \
-     time_budget, max_bytes, degree_weights, perceptual, cap_rounds, colour, lobe, render_check";
+     time_budget, max_bytes, degree_weights, perceptual, cap_rounds, colour, values, lobe, render_check";
 
 fn bad(name: &str, reason: impl std::fmt::Display) -> PyErr {
     PyValueError::new_err(format!("option `{name}`: {reason}"))
@@ -237,6 +240,7 @@ impl BrdfOptions {
                     }
                 }
                 "colour" | "color" => o.colour = Some(get(n, &v)?),
+                "values" => o.values = Some(get(n, &v)?),
                 "lobe" => o.lobe = get(n, &v)?,
                 "render_check" => o.render_check = get(n, &v)?,
                 _ => return Err(bad(n, format!("unknown (options: {OPTION_NAMES})"))),
@@ -378,6 +382,16 @@ impl BrdfOptions {
         }
     }
 
+    /// What the functions' values stand for: the option, else linear (with
+    /// `target_de`, the search's first reduction on the log scale, as
+    /// `ratfit fit`: [`render_cpu::fidelity::TargetScale::Auto`]).
+    pub fn value_scale(&self) -> PyResult<brdf::ValueScale> {
+        match &self.values {
+            Some(v) => v.parse().map_err(|e| bad("values", e)),
+            None => Ok(brdf::ValueScale::default()),
+        }
+    }
+
     /// The settings of a fit at fixed (or perceptual) intervals.
     pub fn brdf_settings(
         &self,
@@ -391,6 +405,7 @@ impl BrdfOptions {
             .and_then(|s| s.with_noise_floor(self.noise_floor))
             .map_err(|e| crate::errors::brdf_error(py, e))?
             .with_colour_mode(self.colour_mode()?)
+            .with_value_scale(self.value_scale()?)
             .with_lobe(lobe)
             .with_cap_rounds(self.cap_rounds)
             .map_err(|e| crate::errors::brdf_error(py, e))?

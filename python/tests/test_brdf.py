@@ -45,6 +45,21 @@ def test_fit_reports_what_it_reached(fitted):
     ceiling = json.loads(fitted.to_json())["brdf"]["ceiling"]
     assert len(ceiling) == 3 and all(c > 0 for c in ceiling)
     assert [c.dim for c in fitted.channels] == [2, 2, 2]
+    assert fitted.value_scale == "linear"
+
+
+def test_a_fit_on_the_log_scale_says_so_and_round_trips(military_green):
+    log = ratfit.fit_brdf(military_green, values="log", **SMALL)
+    assert log.value_scale == "log"
+    assert json.loads(log.to_json())["brdf"]["scale"] == "log"
+    assert all(c["verified"] for c in log.report["report"]["channels"])
+    wi, wo = directions(16, 2)
+    ours = log.eval(wi, wo)
+    # exp(p / q): positive everywhere above the surface.
+    assert np.all(np.isfinite(ours)) and np.all(ours > 0)
+    back = ratfit.FittedMaterial.from_json(log.to_json())
+    assert back.value_scale == "log"
+    assert np.array_equal(back.eval(wi, wo), ours)
 
 
 def test_values_and_json_agree_with_the_cli(tmp_path, cli, fitted, military_green):
@@ -116,6 +131,7 @@ def test_channels_fitted_apart_join_into_the_same_fit(military_green, fitted):
         (dict(rel_tol=1.5), "tolerance"),
         (dict(resolution=(1, 2)), "resolution"),
         (dict(colour="cmyk"), "colour"),
+        (dict(values="exp"), "values"),
         (dict(target_de=-1.0), "target_de"),
         (dict(target_de=1.0, max_bytes=4), "max_bytes"),
         (dict(max_bytes=1024), "max_bytes"),

@@ -635,6 +635,7 @@ fn a_fit_whose_f32_form_loses_its_digits_is_evaluated_in_f64() {
         reduction: brdf::Reduction::default(),
         channels: vec![channel.clone(), channel.clone(), channel],
         mode: brdf::ColourMode::Rgb,
+        scale: brdf::ValueScale::Linear,
         lobe: None,
         ceiling: None,
         shell: None,

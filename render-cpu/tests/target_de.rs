@@ -149,18 +149,28 @@ fn glossy_target_fit_in(
         exponent: 30.0,
     });
     let fixed = render_cpu::fidelity::TargetReduction::Fixed;
-    target_fit(glossy, target, (bins, max_coeffs, max_bytes), colour, fixed)
+    let linear = render_cpu::fidelity::TargetScale::Fixed;
+    target_fit(
+        glossy,
+        target,
+        (bins, max_coeffs, max_bytes),
+        colour,
+        (fixed, linear),
+    )
 }
 
 /// A target fit of `material` from `grid`'s 3-D grid (bins, coefficients per
-/// function and byte budget), in `colour`, with `reduction`, validated on
-/// tiny renders.
+/// function and byte budget), in `colour`, with the reductions and scales
+/// `choices` allows (from linear functions), validated on tiny renders.
 fn target_fit(
     material: std::sync::Arc<dyn brdf::Brdf>,
     target: f64,
     grid: ([usize; 3], usize, Option<usize>),
     colour: (brdf::ColourMode, TargetColour),
-    reduction: render_cpu::fidelity::TargetReduction,
+    choices: (
+        render_cpu::fidelity::TargetReduction,
+        render_cpu::fidelity::TargetScale,
+    ),
 ) -> Result<render_cpu::fidelity::TargetReport, render_cpu::RenderError> {
     use brdf::{BrdfFitSettings, PerceptualBounds, Reduction, ReductionKind};
     use render_cpu::fidelity::{fit_to_target, TargetBudget, ValidationSettings};
@@ -186,12 +196,16 @@ fn target_fit(
         sky_spp: 4,
         seed: 1,
     };
+    let choices = render_cpu::fidelity::TargetChoices {
+        reduction: choices.0,
+        colour: colour.1,
+        scale: choices.1,
+    };
     fit_to_target(
         material,
         target,
         &settings,
-        reduction,
-        colour.1,
+        choices,
         validation,
         TargetBudget::seconds(60.0).with_bytes(max_bytes),
     )
@@ -312,11 +326,10 @@ fn a_target_fit_stays_within_its_byte_budget() {
 }
 
 /// A search loosened for bytes (its first fit over the budget, the next
-/// looser one within) tries once the tolerance halfway between the two,
-/// geometrically, and returns the lower worse-scene error of the fits
-/// within the budget.
+/// looser one within) bisects that bracket twice, geometrically, and
+/// returns the lowest worse-scene error of the fits within the budget.
 #[test]
-fn a_search_loosened_for_bytes_tries_the_tolerance_between_once() {
+fn a_search_loosened_for_bytes_bisects_the_tolerance_between_twice() {
     let lc = (ColourMode::LuminanceChroma, TargetColour::Fixed);
     let free = glossy_target_fit_in(1e3, [6, 6, 4], 30, None, lc).unwrap();
     let budget = free.bytes - 4;
@@ -339,12 +352,21 @@ fn a_search_loosened_for_bytes_tries_the_tolerance_between_once() {
         over.over_budget && over.rel_tol < within.rel_tol,
         "{missed}"
     );
-    let between = whole.get(first_within + 1).expect("the tolerance between");
-    let halfway = (over.rel_tol * within.rel_tol).sqrt();
-    assert!((between.rel_tol - halfway).abs() < 1e-12, "{missed}");
-    assert_eq!(whole.len(), first_within + 2, "tried once: {missed}");
+    // Twice the tolerance halfway (geometrically) between the tightest
+    // within the budget and the loosest past it so far.
+    let (mut tight, mut loose) = (over.rel_tol, within.rel_tol);
+    for between in &whole[first_within + 1..] {
+        let halfway = (tight * loose).sqrt();
+        assert!((between.rel_tol - halfway).abs() < 1e-12, "{missed}");
+        if between.over_budget {
+            tight = between.rel_tol;
+        } else {
+            loose = between.rel_tol;
+        }
+    }
+    assert_eq!(whole.len(), first_within + 3, "bisected twice: {missed}");
     let worst = |a: &render_cpu::fidelity::TargetAttempt| a.result.map(|(_, e)| e);
-    let best_within = [within, between]
+    let best_within = whole[first_within..]
         .iter()
         .filter(|a| !a.over_budget)
         .filter_map(|a| worst(a))
@@ -413,7 +435,45 @@ fn auto_reduction_report(
 ) -> render_cpu::fidelity::TargetReport {
     let lc = (ColourMode::LuminanceChroma, TargetColour::Fixed);
     let auto = render_cpu::fidelity::TargetReduction::Auto;
-    target_fit(material, target, ([6, 6, 4], 30, None), lc, auto).unwrap()
+    let linear = render_cpu::fidelity::TargetScale::Fixed;
+    target_fit(material, target, ([6, 6, 4], 30, None), lc, (auto, linear)).unwrap()
+}
+
+/// With the scales automatic, the whole hemisphere's fits have every
+/// function on the log scale and the fits within a cut after them keep
+/// the base settings' linear scale; the report names the scale of the fit
+/// it returns, which evaluates as its functions' `exp`.
+#[test]
+fn automatic_scales_fit_the_whole_hemisphere_on_the_log_scale_and_the_cut_linearly() {
+    let glossy = std::sync::Arc::new(brdf::BlinnPhong {
+        kd: [0.2, 0.3, 0.1],
+        ks: [0.3, 0.3, 0.3],
+        exponent: 30.0,
+    });
+    let lc = (ColourMode::LuminanceChroma, TargetColour::Fixed);
+    let choices = (
+        render_cpu::fidelity::TargetReduction::Fixed,
+        render_cpu::fidelity::TargetScale::Auto,
+    );
+    // Unreachable, with a byte budget: the search within the cut runs too.
+    let report = target_fit(glossy, 1e-3, ([6, 6, 4], 30, Some(1024)), lc, choices).unwrap();
+    let (whole, within): (Vec<_>, Vec<_>) =
+        report.tried.iter().partition(|a| a.fitted_within.is_none());
+    assert!(!whole.is_empty() && !within.is_empty(), "{report}");
+    assert!(
+        whole.iter().all(|a| a.scale == brdf::ValueScale::Log),
+        "{report}"
+    );
+    assert!(within.iter().all(|a| a.scale.is_linear()), "{report}");
+    let text = report.to_string();
+    assert!(text.contains("luminance-chroma log +-"), "{text}");
+    assert!(text.contains("(log scale)"), "{text}");
+    let chosen_log = report.fitted_within.is_none();
+    assert_eq!(
+        report.scale == brdf::ValueScale::Log,
+        chosen_log,
+        "{report}"
+    );
 }
 
 /// The slice is searched first when the table seen through it reaches the

@@ -136,6 +136,7 @@ fn synthetic(family: BasisFamily, coordinates: Coordinates, dims: usize, seed: u
         } else {
             brdf::ColourMode::LuminanceChroma
         },
+        scale: brdf::ValueScale::Linear,
         lobe: (seed % 3 == 0).then_some(brdf::LobeF32 {
             kd_over_pi: [0.05, 0.1, 0.02],
             f0: [0.04, 0.5, 0.9],
@@ -277,6 +278,7 @@ fn gpu_coordinates_match_the_f64_half_difference_angles() {
     };
     let fit = CompactBrdf {
         mode: brdf::ColourMode::Rgb,
+        scale: brdf::ValueScale::Linear,
         lobe: None,
         ceiling: None,
         coordinates: Coordinates::Radians,

@@ -61,6 +61,10 @@ pub struct FidelityArgs {
     /// `ratfit fit --lobe`).
     #[arg(long, value_delimiter = ',', default_value = "none,ggx")]
     lobe: Vec<LobeChoice>,
+    /// Scales of the 3-D fits' functions that carry light (comma-separated:
+    /// linear, log; see `ratfit fit --values`).
+    #[arg(long, value_delimiter = ',', default_value = "linear,log")]
+    values: Vec<brdf::ValueScale>,
     /// Bins per angle of the 3-D grid.
     #[arg(long, default_value_t = 24)]
     resolution_3d: usize,
@@ -354,6 +358,11 @@ fn settings_and_plan(args: &FidelityArgs) -> (ValidationSettings, Plan) {
             vec![LobeChoice::None, LobeChoice::Ggx]
         } else {
             args.lobe.clone()
+        },
+        values: if args.quick {
+            vec![brdf::ValueScale::Linear, brdf::ValueScale::Log]
+        } else {
+            args.values.clone()
         },
         tols: if args.quick {
             vec![0.16]

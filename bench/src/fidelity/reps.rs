@@ -25,6 +25,7 @@ pub(super) struct Plan {
     pub(super) perceptual_2d: bool,
     pub(super) modes: Vec<ColourMode>,
     pub(super) lobes: Vec<LobeChoice>,
+    pub(super) values: Vec<brdf::ValueScale>,
     pub(super) tols: Vec<f64>,
     pub(super) resolution_3d: usize,
     pub(super) cut_3d: Option<f64>,
@@ -86,8 +87,12 @@ pub(super) fn rational_reps(table: &Arc<dyn Brdf>, plan: &Plan) -> Vec<Attempt> 
             resolution: 90,
             cut: None,
         };
-        let r =
-            rational_mode::fit_perceptual(table, grid, t, plan.max_coeffs, ColourMode::Rgb, None);
+        let shape = rational_mode::Shape {
+            mode: ColourMode::Rgb,
+            lobe: None,
+            scale: brdf::ValueScale::Linear,
+        };
+        let r = rational_mode::fit_perceptual(table, grid, t, plan.max_coeffs, shape);
         out.push(Attempt::timed(
             format!("rational 2-D perceptual {}%", t * 100.0),
             start,
@@ -99,32 +104,49 @@ pub(super) fn rational_reps(table: &Arc<dyn Brdf>, plan: &Plan) -> Vec<Attempt> 
         let start = Instant::now();
         (brdf::Lobe::fit(table), start.elapsed().as_secs_f64())
     });
-    for &t in &plan.tols {
-        for &mode in &plan.modes {
-            for &choice in &plan.lobes {
-                let start = Instant::now();
-                let (with, lobe_s) = match (choice, &lobe) {
-                    (LobeChoice::Ggx, Some((l, s))) => (Some(*l), *s),
-                    _ => (None, 0.0),
-                };
-                let grid = rational_mode::Grid {
-                    dims: 3,
-                    resolution: plan.resolution_3d,
-                    cut: plan.cut_3d,
-                };
-                let r = rational_mode::fit_perceptual(table, grid, t, plan.max_coeffs, mode, with);
-                let what = mode.to_string();
-                let lobe_name = if with.is_some() { " x GGX lobe" } else { "" };
-                let cut = plan.cut_3d.map_or(String::new(), |c| format!(" cut {c}"));
-                let mut attempt = Attempt::timed(
-                    format!("rational 3-D {what}{lobe_name} {}%{cut}", t * 100.0),
-                    start,
-                    r,
-                );
-                attempt.fit_s += lobe_s;
-                out.push(attempt);
-            }
-        }
+    let combinations = plan.tols.iter().flat_map(|&t| {
+        plan.modes.iter().flat_map(move |&mode| {
+            plan.lobes.iter().flat_map(move |&choice| {
+                plan.values
+                    .iter()
+                    .map(move |&scale| (t, mode, choice, scale))
+            })
+        })
+    });
+    for (t, mode, choice, scale) in combinations {
+        let start = Instant::now();
+        let (with, lobe_s) = match (choice, &lobe) {
+            (LobeChoice::Ggx, Some((l, s))) => (Some(*l), *s),
+            _ => (None, 0.0),
+        };
+        let grid = rational_mode::Grid {
+            dims: 3,
+            resolution: plan.resolution_3d,
+            cut: plan.cut_3d,
+        };
+        let shape = rational_mode::Shape {
+            mode,
+            lobe: with,
+            scale,
+        };
+        let r = rational_mode::fit_perceptual(table, grid, t, plan.max_coeffs, shape);
+        let lobe_name = if with.is_some() { " x GGX lobe" } else { "" };
+        let log_name = if scale.is_linear() {
+            String::new()
+        } else {
+            format!(" {scale}")
+        };
+        let cut = plan.cut_3d.map_or(String::new(), |c| format!(" cut {c}"));
+        let mut attempt = Attempt::timed(
+            format!(
+                "rational 3-D {mode}{log_name}{lobe_name} {}%{cut}",
+                t * 100.0
+            ),
+            start,
+            r,
+        );
+        attempt.fit_s += lobe_s;
+        out.push(attempt);
     }
     out
 }
@@ -141,8 +163,7 @@ fn fit_target(
     max_coeffs: usize,
 ) -> Result<(brdf::FittedBrdf, String)> {
     use render_cpu::fidelity::{
-        fit_to_target, target_settings, TargetBudget, TargetColour, TargetReduction,
-        ValidationSettings,
+        fit_to_target, target_settings, TargetBudget, TargetChoices, ValidationSettings,
     };
     let engine = rational_core::FitSettings::default()
         .with_coeff_range(2, max_coeffs)?
@@ -153,16 +174,20 @@ fn fit_target(
         table.clone(),
         target.de,
         &settings,
-        TargetReduction::Auto,
-        TargetColour::Auto,
+        TargetChoices::default(),
         ValidationSettings::default(),
         budget,
     )?;
     let widened = report.widened;
     let note = format!(
-        "{}-D {} +-{}%{}{}{}; {} on its own validation renders ({:.3}); {} fits tried",
+        "{}-D {}{} +-{}%{}{}{}; {} on its own validation renders ({:.3}); {} fits tried",
         report.dims,
         report.colour,
+        if fitted.scale.is_linear() {
+            String::new()
+        } else {
+            format!(" {}", fitted.scale)
+        },
         brdf::scale_text(report.rel_tol * 100.0),
         if widened > 1.0 {
             format!(" widened x{}", brdf::scale_text(widened))
@@ -277,6 +302,17 @@ mod rational_mode {
         pub cut: Option<f64>,
     }
 
+    /// What a perceptual fit's functions are.
+    #[derive(Clone, Copy)]
+    pub struct Shape {
+        /// The colour mode.
+        pub mode: ColourMode,
+        /// The lobe they multiply, if any.
+        pub lobe: Option<brdf::Lobe>,
+        /// The scale of the functions that carry light.
+        pub scale: brdf::ValueScale,
+    }
+
     /// The 2-D slice or the full `(theta_h, theta_d, phi_d)` grid over the
     /// whole hemisphere (or within the grid's elevation cut) with
     /// perceptual intervals.
@@ -285,8 +321,7 @@ mod rational_mode {
         grid: Grid,
         rel_tol: f64,
         max_coeffs: usize,
-        mode: ColourMode,
-        lobe: Option<brdf::Lobe>,
+        shape: Shape,
     ) -> Result<(FittedBrdf, String)> {
         let Grid {
             dims,
@@ -310,8 +345,9 @@ mod rational_mode {
         let settings = BrdfFitSettings::default()
             .with_reduction(reduction)
             .with_design(PerceptualBounds::default().with_rel_tol(rel_tol)?)
-            .with_colour_mode(mode)
-            .with_lobe(lobe)
+            .with_colour_mode(shape.mode)
+            .with_lobe(shape.lobe)
+            .with_value_scale(shape.scale)
             .with_baselines(false)
             .with_fit_settings(engine(max_coeffs, true)?);
         let (f, r) = fit_brdf(table, &settings)?;

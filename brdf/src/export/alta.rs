@@ -94,7 +94,7 @@ impl AltaRational {
     /// # Errors
     /// Fits in coordinates ALTA has no parametrisation for (the sqrt warp of
     /// `theta_h`, cosines: refit with radians), in a basis other than
-    /// Chebyshev, or with a lobe or a shell factor.
+    /// Chebyshev, with a lobe or a shell factor, or on the log scale.
     pub fn from_fitted(fit: &FittedBrdf) -> Result<Self, BrdfError> {
         if fit.lobe.is_some() {
             return Err(BrdfError::Invalid {
@@ -112,6 +112,14 @@ impl AltaRational {
             return Err(BrdfError::Invalid {
                 name: "ALTA export",
                 reason: "ALTA rational functions hold one function per RGB channel; this fit is in the luminance-chroma mode (refit with the rgb mode)".into(),
+            });
+        }
+        if !fit.scale.is_linear() {
+            return Err(BrdfError::Invalid {
+                name: "ALTA export",
+                reason: "ALTA's rational functions are the values; this fit's are their \
+                         logarithms (refit on the linear scale)"
+                    .into(),
             });
         }
         if fit.reduction.coordinates != Coordinates::Radians {

@@ -9,6 +9,7 @@ use crate::geometry::Vec3;
 use crate::lobe::LobeF32;
 use crate::reduce::{Coordinates, Reduction};
 use crate::shell::{ShellColour, ThetaDSpacing};
+use crate::value_scale::ValueScale;
 use crate::BrdfError;
 use rational_core::BasisFamily;
 use std::f32::consts::PI;
@@ -57,6 +58,8 @@ pub struct CompactBrdf {
     pub channels: Vec<CompactChannel>,
     /// What the three functions are.
     pub mode: ColourMode,
+    /// What each function's value stands for ([`FittedBrdf::scale`]).
+    pub scale: ValueScale,
     /// The analytic lobe each function multiplies, when there is one.
     pub lobe: Option<LobeF32>,
     /// The largest RGB value evaluation returns ([`FittedBrdf::ceiling`]).
@@ -340,6 +343,7 @@ impl CompactBrdf {
             max_elevation: f.reduction.max_elevation_deg.min(90.0).to_radians() as f32,
             channels,
             mode: f.mode,
+            scale: f.scale,
             lobe: f.lobe.map(|l| l.to_f32()),
             ceiling: f.ceiling.map(|c| c.map(|v| v as f32)),
             shell: f.shell.as_ref().map(|sh| ShellF32 {
@@ -381,6 +385,7 @@ impl CompactBrdf {
         };
         let x = self.coordinates(wi, wo);
         let v = [0, 1, 2].map(|c| self.channels[c].eval(&x[..self.dims]));
+        let v = self.scale.values_f32(self.mode, v);
         let v = match &self.lobe {
             Some(lobe) => {
                 let f = lobe.factors(wi, wo, self.mode);
@@ -435,14 +440,21 @@ impl CompactBrdf {
     /// shell factor after the ceiling: one byte each for its `theta_h` and
     /// `theta_d` bins, then one f32 per cell, or three with bit 7 (one per
     /// function); bit 6 spaces its `theta_d` bins uniformly in
-    /// `1 - cos theta_d`.
+    /// `1 - cos theta_d`. Bits 6 and 7 of the coordinates byte give the
+    /// functions' scale: 0 linear, 1 ([`ValueScale::Log`]) every function
+    /// on the log scale, 2 ([`ValueScale::LogLight`]) those that carry
+    /// light.
     pub fn to_bytes(&self) -> Vec<u8> {
         let mut out = b"RFB1".to_vec();
         let coords = match self.coordinates {
             Coordinates::Radians => 0u8,
             Coordinates::SqrtThetaH => 1,
             Coordinates::Cosines => 2,
-        };
+        } | (match self.scale {
+            ValueScale::Log => 1u8,
+            ValueScale::LogLight => 2,
+            _ => 0,
+        } << 6);
         let weighted = self
             .channels
             .iter()
@@ -514,7 +526,13 @@ impl CompactBrdf {
         if b.len() < 12 || &b[..4] != b"RFB1" {
             return Err(bad("missing RFB1 magic"));
         }
-        let coordinates = match b[4] {
+        let scale = match b[4] >> 6 {
+            0 => ValueScale::Linear,
+            1 => ValueScale::Log,
+            2 => ValueScale::LogLight,
+            _ => return Err(bad("unknown value scale code")),
+        };
+        let coordinates = match b[4] & 0x3f {
             0 => Coordinates::Radians,
             1 => Coordinates::SqrtThetaH,
             2 => Coordinates::Cosines,
@@ -551,23 +569,8 @@ impl CompactBrdf {
         } else {
             (PI / 2.0, 12)
         };
-        let lobe = if b[7] & 8 == 8 {
-            let raw = b.get(pos..pos + 28).ok_or_else(|| bad("truncated lobe"))?;
-            pos += 28;
-            let v: Vec<f32> = raw
-                .chunks_exact(4)
-                .map(|c| f32::from_le_bytes(c.try_into().expect("4")))
-                .collect();
-            let lobe = LobeF32 {
-                kd_over_pi: [v[0], v[1], v[2]],
-                f0: [v[3], v[4], v[5]],
-                alpha: v[6],
-            };
-            lobe.validate().map_err(|e| bad(&format!("lobe: {e}")))?;
-            Some(lobe)
-        } else {
-            None
-        };
+        let (lobe, next) = read_lobe(b, pos, b[7]).map_err(|r| bad(&r))?;
+        pos = next;
         let ceiling = if b[7] & 16 == 16 {
             let raw = b
                 .get(pos..pos + 12)
@@ -598,6 +601,7 @@ impl CompactBrdf {
         }
         Ok(Self {
             mode,
+            scale,
             lobe,
             ceiling,
             shell,
@@ -608,6 +612,26 @@ impl CompactBrdf {
             channels,
         })
     }
+}
+
+/// The lobe of the compact binary at `pos` that header `flags` announce
+/// (bit 3), if any, and the position after it, or what is wrong.
+fn read_lobe(b: &[u8], pos: usize, flags: u8) -> Result<(Option<LobeF32>, usize), String> {
+    if flags & 8 == 0 {
+        return Ok((None, pos));
+    }
+    let raw = b.get(pos..pos + 28).ok_or("truncated lobe")?;
+    let v: Vec<f32> = raw
+        .chunks_exact(4)
+        .map(|c| f32::from_le_bytes(c.try_into().expect("4")))
+        .collect();
+    let lobe = LobeF32 {
+        kd_over_pi: [v[0], v[1], v[2]],
+        f0: [v[3], v[4], v[5]],
+        alpha: v[6],
+    };
+    lobe.validate().map_err(|e| format!("lobe: {e}"))?;
+    Ok((Some(lobe), pos + 28))
 }
 
 /// The shell factor of the compact binary at `pos` that header `flags`

@@ -422,7 +422,7 @@ impl BatchForm for CompactBrdf {
         ChannelView::from(&self.channels[c])
     }
     fn finish(&self, v: [f32; 3], wi: [f32; 3], wo: [f32; 3], shell: Option<[f32; 3]>) -> [f32; 3] {
-        let mut rgb = v;
+        let mut rgb = self.scale.values_f32(self.mode, v);
         if let Some(lobe) = &self.lobe {
             let f = lobe.factors(wi, wo, self.mode);
             rgb = [rgb[0] * f[0], rgb[1] * f[1], rgb[2] * f[2]];
@@ -553,6 +553,7 @@ impl BatchForm for BatchedFit {
         }
     }
     fn finish(&self, v: [f64; 3], wi: [f64; 3], wo: [f64; 3], shell: Option<[f64; 3]>) -> [f64; 3] {
+        let v = self.fit.scale.values(self.fit.mode, v);
         let v = match &self.fit.lobe {
             Some(lobe) => {
                 let f = Lobe::factors(lobe, wi, wo, self.fit.mode);

@@ -7,6 +7,7 @@ use crate::colour::ColourMode;
 use crate::compact::{CompactBrdf, CompactChannel};
 use crate::reduce::Coordinates;
 use crate::shell::{ShellColour, ThetaDSpacing};
+use crate::value_scale::ValueScale;
 use crate::BrdfError;
 use rational_core::BasisFamily;
 
@@ -434,6 +435,13 @@ fn brdf_fn(b: &CompactBrdf, l: Language, prefix: &str) -> String {
     let calls: Vec<String> = (0..b.channels.len())
         .map(|k| {
             let mut call = format!("{prefix}_channel_{k}(x)");
+            if b.scale.of(b.mode, k) == ValueScale::Log {
+                // The exponent limit of `ValueScale::value_f32`.
+                call = format!(
+                    "exp(min({call}, {}))",
+                    lit(crate::value_scale::LOG_EXPONENT_LIMIT as f32)
+                );
+            }
             if b.lobe.is_some() {
                 call = format!("({call} * lobe.{})", components[k]);
             }

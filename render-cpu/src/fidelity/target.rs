@@ -43,6 +43,45 @@ pub enum TargetColour {
     Fixed,
 }
 
+/// Which scales [`fit_to_target`] may fit the functions on
+/// ([`brdf::ValueScale`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+#[non_exhaustive]
+pub enum TargetScale {
+    /// The search of the base settings' own reduction (the 3-D grid over
+    /// the whole hemisphere, by default) with every function on the log
+    /// scale, where a sharp or coloured highlight costs the fewest
+    /// coefficients; the searches after it (within a cut, the slice, the
+    /// other colour mode, the split budget) on the base settings' scale.
+    /// The validation renders choose among all their fits.
+    Auto,
+    /// The base settings' scale in every search.
+    Fixed,
+}
+
+/// What [`fit_to_target`] may choose besides the tolerance.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+pub struct TargetChoices {
+    /// The reductions.
+    pub reduction: TargetReduction,
+    /// The colour modes.
+    pub colour: TargetColour,
+    /// The scales of the functions.
+    pub scale: TargetScale,
+}
+
+impl Default for TargetChoices {
+    /// Every choice automatic.
+    fn default() -> Self {
+        Self {
+            reduction: TargetReduction::Auto,
+            colour: TargetColour::Auto,
+            scale: TargetScale::Auto,
+        }
+    }
+}
+
 /// The share of the time budget the search in the other colour mode
 /// ([`TargetColour::Auto`]) may start fits within, from its own start.
 const OTHER_COLOUR_SHARE: f64 = 0.6;
@@ -211,9 +250,13 @@ fn slice_floor(goal: &Goal) -> Result<SliceFloor, RenderError> {
 fn run_searches(
     goal: &Goal,
     base: &brdf::BrdfFitSettings,
-    reduction: TargetReduction,
-    colour: TargetColour,
+    choices: TargetChoices,
 ) -> Result<Searched, RenderError> {
+    let TargetChoices {
+        reduction,
+        colour,
+        scale,
+    } = choices;
     let budget_s = goal.budget.seconds;
     let dims = base.reduction().dims();
     let mut searches: Vec<(String, Search)> = Vec::new();
@@ -257,15 +300,23 @@ fn run_searches(
     let (mut over_budget_at, mut best_at): (Vec<f64>, Option<f64>) = (Vec::new(), None);
     let mut best_cut: Option<f64> = None;
     if !reached(&searches) {
-        let s = search_tolerances(goal, base, &TOLERANCES, budget_s, false)?;
+        let own = match scale {
+            TargetScale::Auto => base.clone().with_value_scale(brdf::ValueScale::Log),
+            TargetScale::Fixed => base.clone(),
+        };
+        let s = search_tolerances(goal, &own, &TOLERANCES, budget_s, false)?;
         over_budget_at = (s.tried.iter())
             .filter(|a| a.over_budget)
             .map(|a| a.rel_tol)
             .collect();
         best_at = s.best.as_ref().map(|m| m.attempt.rel_tol);
         best_cut = s.best.as_ref().and_then(|m| m.attempt.cut);
+        let on_scale = match own.value_scale() {
+            brdf::ValueScale::Linear => String::new(),
+            other => format!(" ({other} scale)"),
+        };
         searches.push((
-            in_mode(&format!("the {dims}-D fits"), base.colour_mode()),
+            in_mode(&format!("the {dims}-D fits{on_scale}"), base.colour_mode()),
             s,
         ));
     }
@@ -449,7 +500,9 @@ fn why_chosen(searches: &[(String, Search)], k: usize) -> String {
 /// the other colour mode (RGB after luminance-chroma) when the target is
 /// unreached, that reduction holds the best fit and the chroma ratios,
 /// not the luminance, limited it; that search starts fits within 60% of
-/// the time budget from its own start. `base`
+/// the time budget from its own start. With [`TargetScale::Auto`], the
+/// search of `base`'s own reduction fits every function on the log scale
+/// and the others on `base`'s scale. `base`
 /// gives the engine, grid and design (its relative half-width is
 /// replaced). When a 3-D fit does not reach the target, the report also
 /// gives what the table itself renders at on that fit's grid
@@ -463,8 +516,7 @@ pub fn fit_to_target(
     table: Arc<dyn Brdf>,
     target_de: f64,
     base: &brdf::BrdfFitSettings,
-    reduction: TargetReduction,
-    colour: TargetColour,
+    choices: TargetChoices,
     validation: ValidationSettings,
     budget: TargetBudget,
 ) -> Result<(brdf::FittedBrdf, TargetReport), RenderError> {
@@ -500,7 +552,7 @@ pub fn fit_to_target(
         best,
         tried,
         slice_floor,
-    } = run_searches(&goal, base, reduction, colour)?;
+    } = run_searches(&goal, base, choices)?;
     let Some(Measured {
         fitted,
         errors,
@@ -557,6 +609,7 @@ pub fn fit_to_target(
         colour_split,
         dims: fitted.reduction.dims(),
         colour: fitted.mode,
+        scale: fitted.scale,
         why,
         rel_tol: attempt.rel_tol,
         bytes: fitted.byte_size_f32(),
@@ -583,6 +636,7 @@ mod tests {
         TargetAttempt {
             dims: 2,
             colour: ColourMode::LuminanceChroma,
+            scale: brdf::ValueScale::Linear,
             rel_tol: 0.16,
             seconds: 1.0,
             result: limiting.map(|_| (400, 3.0)),

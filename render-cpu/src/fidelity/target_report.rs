@@ -11,6 +11,8 @@ pub struct TargetAttempt {
     pub dims: usize,
     /// The colour mode of its functions.
     pub colour: brdf::ColourMode,
+    /// The scale of its functions.
+    pub scale: brdf::ValueScale,
     /// Perceptual relative half-width.
     pub rel_tol: f64,
     /// Seconds spent on it: the fit and its validation renders.
@@ -48,9 +50,10 @@ impl std::fmt::Display for TargetAttempt {
         match self.result {
             Some((bytes, worst)) => write!(
                 f,
-                "tried {}-D {}{} +-{}%{}: {bytes} bytes{}, worse mean CIEDE2000 {worst:.3}{} ({:.1} s)",
+                "tried {}-D {}{}{} +-{}%{}: {bytes} bytes{}, worse mean CIEDE2000 {worst:.3}{} ({:.1} s)",
                 self.dims,
                 self.colour,
+                scale_name(self.scale),
                 self.fitted_within
                     .map_or(String::new(), |c| format!(" within {c} degrees")),
                 brdf::scale_text(self.rel_tol * 100.0),
@@ -77,9 +80,10 @@ impl std::fmt::Display for TargetAttempt {
             ),
             None => write!(
                 f,
-                "tried {}-D {}{} +-{}%: no fit within the coefficient budget{} ({:.1} s)",
+                "tried {}-D {}{}{} +-{}%: no fit within the coefficient budget{} ({:.1} s)",
                 self.dims,
                 self.colour,
+                scale_name(self.scale),
                 self.fitted_within
                     .map_or(String::new(), |c| format!(" within {c} degrees")),
                 brdf::scale_text(self.rel_tol * 100.0),
@@ -87,6 +91,15 @@ impl std::fmt::Display for TargetAttempt {
                 self.seconds
             ),
         }
+    }
+}
+
+/// " log" or " log-light" after a colour mode; nothing for linear.
+pub(super) fn scale_name(scale: brdf::ValueScale) -> String {
+    if scale.is_linear() {
+        String::new()
+    } else {
+        format!(" {scale}")
     }
 }
 
@@ -160,6 +173,8 @@ pub struct TargetReport {
     pub dims: usize,
     /// The colour mode of the chosen fit.
     pub colour: brdf::ColourMode,
+    /// The scale of its functions that carry light.
+    pub scale: brdf::ValueScale,
     /// Why this reduction was chosen.
     pub why: String,
     /// The perceptual half-width of the chosen fit.
@@ -208,7 +223,7 @@ impl std::fmt::Display for TargetReport {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         writeln!(
             f,
-            "target mean CIEDE2000 <= {}: {} with a {}-D {} fit, perceptual intervals of +-{}% ({} bytes{})",
+            "target mean CIEDE2000 <= {}: {} with a {}-D {}{} fit, perceptual intervals of +-{}% ({} bytes{})",
             self.target_de,
             if self.reached {
                 "reached"
@@ -217,6 +232,7 @@ impl std::fmt::Display for TargetReport {
             },
             self.dims,
             self.colour,
+            scale_name(self.scale),
             brdf::scale_text(self.rel_tol * 100.0),
             self.bytes,
             self.max_bytes

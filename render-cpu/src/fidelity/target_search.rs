@@ -55,6 +55,11 @@ const WIDEN_STEP: f64 = std::f64::consts::SQRT_2;
 /// squared).
 const MAX_WIDENINGS: usize = 2;
 
+/// How many times a search bisects (geometrically) the bracket between a
+/// tolerance whose fit is within the byte budget and a tighter one past
+/// it: twice narrows a factor of 2 to 2^(1/4), about 19%.
+const MAX_REFINEMENTS: usize = 2;
+
 /// The engine of a target fit: `settings`' with the target's widening,
 /// and no function given more coefficients than the byte budget holds (its
 /// fits stop there and widen instead of searching sizes that could not be
@@ -196,6 +201,7 @@ pub(super) fn fit_at(
     let attempt = TargetAttempt {
         dims: settings.reduction().dims(),
         colour: settings.colour_mode(),
+        scale: settings.value_scale(),
         rel_tol: t,
         seconds: started.elapsed().as_secs_f64(),
         result: Some((bytes, errors.worst_mean())),
@@ -220,8 +226,10 @@ pub(super) fn fit_at(
 /// tighter tolerance improves the error by less than 10% (the reduction's
 /// own error dominates). When even the loosest has no fit, looser ones
 /// follow; when its fit passes the byte budget, looser ones by sqrt 2
-/// follow until one fits within it, and then once the tolerance halfway
-/// (geometrically) between that one and the last over the budget. Both go
+/// follow until one fits within it. A fit within the byte budget and a
+/// tighter one past it bracket the tightest tolerance within it: the
+/// tolerance halfway (geometrically) between them is tried, and once more
+/// between it and the bracket's other end ([`MAX_REFINEMENTS`]). Both go
 /// on past the deadline while the search has no fit within the budgets. A channel's intervals are
 /// widened by [`WIDEN_STEP`] at most [`MAX_WIDENINGS`] times (reported):
 /// widened further, a perceptual design's floors and caps stop meaning
@@ -247,9 +255,11 @@ pub(super) fn search_tolerances(
     let mut previous = f64::INFINITY;
     let mut queue: Vec<f64> = tolerances.to_vec();
     let (mut k, mut loosened, mut loosened_for_bytes) = (0, false, false);
-    // The last tolerance whose fit passed the byte budget, and whether the
-    // one between it and the first within the budget was tried.
-    let (mut over_at, mut refined): (Option<f64>, bool) = (None, false);
+    // The last tolerance whose fit passed the byte budget, the last whose
+    // fit was within it (they bracket the tightest within it), and how many
+    // tolerances between them were tried.
+    let (mut over_at, mut within_at, mut refinements): (Option<f64>, Option<f64>, usize) =
+        (None, None, 0);
     let past_deadline = || goal.start.elapsed().as_secs_f64() > deadline_s;
     while k < queue.len() {
         let t = queue[k];
@@ -261,6 +271,7 @@ pub(super) fn search_tolerances(
                 search.tried.push(TargetAttempt {
                     dims: settings.reduction().dims(),
                     colour: settings.colour_mode(),
+                    scale: settings.value_scale(),
                     rel_tol: t,
                     seconds: started.elapsed().as_secs_f64(),
                     result: None,
@@ -289,8 +300,16 @@ pub(super) fn search_tolerances(
         search.tried.push(m.attempt.clone());
         if over_budget {
             over_at = Some(t);
-            if search.best.is_some() {
-                // Tighter intervals than a fit within the budget only grow.
+            if let Some(within) = within_at {
+                // Between a fit within the budget and this tighter one past
+                // it, the tolerance halfway (geometrically); tighter ones
+                // only grow.
+                if refinements < MAX_REFINEMENTS && !past_deadline() {
+                    queue = vec![(within * t).sqrt()];
+                    k = 0;
+                    refinements += 1;
+                    continue;
+                }
                 break;
             }
             // Nothing within the byte budget yet: looser tolerances follow
@@ -303,20 +322,22 @@ pub(super) fn search_tolerances(
             }
             continue;
         }
+        within_at = Some(t);
         let reached = worst <= goal.target_de;
         if reached || worst < search.worst() {
             search.best = Some(m);
         }
         let at_floor = stop_at_floor && worst > 0.9 * previous;
         previous = previous.min(worst);
-        // Loosened for bytes by sqrt 2, the first fit within the budget may
-        // leave much of it unused: the tolerance halfway (geometrically) to
-        // the last one over the budget is tried once.
-        if let (true, false, false, Some(over)) = (loosened_for_bytes, reached, refined, over_at) {
-            if !past_deadline() {
+        // Loosened for bytes by sqrt 2 (or after a tolerance between), a
+        // fit within the budget may leave much of it unused: the tolerance
+        // halfway (geometrically) to the last one over the budget follows.
+        let bracketed = loosened_for_bytes || refinements > 0;
+        if let (true, false, Some(over)) = (bracketed, reached, over_at) {
+            if refinements < MAX_REFINEMENTS && !past_deadline() {
                 queue = vec![(over * t).sqrt()];
                 k = 0;
-                refined = true;
+                refinements += 1;
                 continue;
             }
         }

@@ -394,8 +394,7 @@ fn fit_for_target(
         src.clone(),
         target,
         &settings,
-        crate::fidelity::TargetReduction::Auto,
-        crate::fidelity::TargetColour::Auto,
+        crate::fidelity::TargetChoices::default(),
         crate::fidelity::ValidationSettings::default(),
         budget,
     )?;
