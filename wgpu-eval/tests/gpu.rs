@@ -136,7 +136,13 @@ fn synthetic(family: BasisFamily, coordinates: Coordinates, dims: usize, seed: u
         } else {
             brdf::ColourMode::LuminanceChroma
         },
-        scale: brdf::ValueScale::Linear,
+        // A third of them with functions on the log scale: every function,
+        // or those that carry light (the shader's `exp` of the same sums).
+        scale: match seed % 6 {
+            1 => brdf::ValueScale::Log,
+            4 => brdf::ValueScale::LogLight,
+            _ => brdf::ValueScale::Linear,
+        },
         lobe: (seed % 3 == 0).then_some(brdf::LobeF32 {
             kd_over_pi: [0.05, 0.1, 0.02],
             f0: [0.04, 0.5, 0.9],
