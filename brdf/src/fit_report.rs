@@ -98,6 +98,51 @@ pub struct BrdfFitReport {
     pub seconds: f64,
 }
 
+impl BrdfFitReport {
+    /// The lines that say what the functions are beyond their intervals:
+    /// the ceiling, the lobe, the scale and the basis order.
+    fn write_representation(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        if let Some(c) = self.ceiling {
+            let raised = if self.design.is_some() {
+                "raised to its cap where higher; measured values beyond 80 degrees are not trusted and do not raise it"
+            } else {
+                "raised to its cap or its largest value where higher"
+            };
+            writeln!(
+                f,
+                "  RGB values held at or below {:.4e}, {:.4e}, {:.4e}: {}x each channel's measured peak within 80 degrees ({raised})",
+                c[0],
+                c[1],
+                c[2],
+                crate::CEILING_OVER_PEAK
+            )?;
+        }
+        if let Some(l) = &self.lobe {
+            writeln!(
+                f,
+                "  lobe times rational: the functions fit the table divided by Cook-Torrance GGX (kd {:.4?}, f0 {:.4?}, alpha {:.4}); errors below are of the product",
+                l.kd, l.f0, l.alpha
+            )?;
+        }
+        if !self.scale.is_linear() {
+            writeln!(
+                f,
+                "  log scale ({}): {} the logarithm of its value, exp(p / q), fitted to the logarithms of its intervals; errors below are of the value",
+                self.scale,
+                match self.scale {
+                    ValueScale::LogLight => "each function that carries light (each channel, or the luminance; chroma ratios stay linear) is",
+                    _ => "each function is",
+                }
+            )?;
+        }
+        if !self.degree_weights.is_empty() {
+            let w: Vec<String> = self.degree_weights.iter().map(u16::to_string).collect();
+            writeln!(f, "  basis order: degree weights {}", w.join(","))?;
+        }
+        Ok(())
+    }
+}
+
 impl fmt::Display for BrdfFitReport {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let r = &self.reduction;
@@ -139,43 +184,7 @@ impl fmt::Display for BrdfFitReport {
                 writeln!(f, "  {}   {k}", c.channel)?;
             }
         }
-        if let Some(c) = self.ceiling {
-            let raised = if self.design.is_some() {
-                "raised to its cap where higher; measured values beyond 80 degrees are not trusted and do not raise it"
-            } else {
-                "raised to its cap or its largest value where higher"
-            };
-            writeln!(
-                f,
-                "  RGB values held at or below {:.4e}, {:.4e}, {:.4e}: {}x each channel's measured peak within 80 degrees ({raised})",
-                c[0],
-                c[1],
-                c[2],
-                crate::CEILING_OVER_PEAK
-            )?;
-        }
-        if let Some(l) = &self.lobe {
-            writeln!(
-                f,
-                "  lobe times rational: the functions fit the table divided by Cook-Torrance GGX (kd {:.4?}, f0 {:.4?}, alpha {:.4}); errors below are of the product",
-                l.kd, l.f0, l.alpha
-            )?;
-        }
-        if !self.scale.is_linear() {
-            writeln!(
-                f,
-                "  log scale ({}): {} the logarithm of its value, exp(p / q), fitted to the logarithms of its intervals; errors below are of the value",
-                self.scale,
-                match self.scale {
-                    ValueScale::LogLight => "each function that carries light (each channel, or the luminance; chroma ratios stay linear) is",
-                    _ => "each function is",
-                }
-            )?;
-        }
-        if !self.degree_weights.is_empty() {
-            let w: Vec<String> = self.degree_weights.iter().map(u16::to_string).collect();
-            writeln!(f, "  basis order: degree weights {}", w.join(","))?;
-        }
+        self.write_representation(f)?;
         writeln!(
             f,
             "  ch  n_p n_q  bytes  samples (>floor)  verified   max rel  mean rel  max rel*  mean rel*      RMSE   cos-RMSE    time s"

@@ -300,25 +300,14 @@ fn run_searches(
     let (mut over_budget_at, mut best_at): (Vec<f64>, Option<f64>) = (Vec::new(), None);
     let mut best_cut: Option<f64> = None;
     if !reached(&searches) {
-        let own = match scale {
-            TargetScale::Auto => base.clone().with_value_scale(brdf::ValueScale::Log),
-            TargetScale::Fixed => base.clone(),
-        };
-        let s = search_tolerances(goal, &own, &TOLERANCES, budget_s, false)?;
+        let (what, s) = own_reduction_search(goal, base, scale)?;
         over_budget_at = (s.tried.iter())
             .filter(|a| a.over_budget)
             .map(|a| a.rel_tol)
             .collect();
         best_at = s.best.as_ref().map(|m| m.attempt.rel_tol);
         best_cut = s.best.as_ref().and_then(|m| m.attempt.cut);
-        let on_scale = match own.value_scale() {
-            brdf::ValueScale::Linear => String::new(),
-            other => format!(" ({other} scale)"),
-        };
-        searches.push((
-            in_mode(&format!("the {dims}-D fits{on_scale}"), base.colour_mode()),
-            s,
-        ));
+        searches.push((in_mode(&what, base.colour_mode()), s));
     }
     let whole_3d = base.reduction().kind == brdf::ReductionKind::Full3d
         && base.reduction().max_elevation_deg >= 90.0;
@@ -369,6 +358,26 @@ fn run_searches(
         ));
     }
     Ok(conclude(searches, floor))
+}
+
+/// The search of `base`'s own reduction over [`TOLERANCES`], on the log
+/// scale with [`TargetScale::Auto`], and its name.
+fn own_reduction_search(
+    goal: &Goal,
+    base: &brdf::BrdfFitSettings,
+    scale: TargetScale,
+) -> Result<(String, Search), RenderError> {
+    let own = match scale {
+        TargetScale::Auto => base.clone().with_value_scale(brdf::ValueScale::Log),
+        TargetScale::Fixed => base.clone(),
+    };
+    let s = search_tolerances(goal, &own, &TOLERANCES, goal.budget.seconds, false)?;
+    let on_scale = match own.value_scale() {
+        brdf::ValueScale::Linear => String::new(),
+        other => format!(" ({other} scale)"),
+    };
+    let dims = base.reduction().dims();
+    Ok((format!("the {dims}-D fits{on_scale}"), s))
 }
 
 /// The search of `first`'s reduction (its settings and index in
