@@ -107,7 +107,7 @@ fn cap_grid(data: &IntervalData, reduction: &Reduction) -> Vec<Vec<f64>> {
                 lower[k] + t * (upper[k] - lower[k])
             })
             .collect();
-        let (wi, wo) = HalfDiff::pair_at(reduction.coordinates.angles(&x));
+        let (wi, wo) = HalfDiff::pair_at(reduction.angles(&x));
         if wi[2] > 0.0 && wo[2] > 0.0 && wi[2].min(wo[2]) >= min_cos {
             grid.push(x);
         }
@@ -140,7 +140,7 @@ fn boundary_points(
             if dim == 3 {
                 x.push(at(2, j));
             }
-            let [theta_h, _, phi_d] = reduction.coordinates.angles(&x);
+            let [theta_h, _, phi_d] = reduction.angles(&x);
             // a cos(theta_d) - b sin(theta_d) = r cos(theta_d + atan2(b, a)).
             let (a, b) = (theta_h.cos(), theta_h.sin() * phi_d.cos().abs());
             let r = a.hypot(b);
@@ -149,7 +149,7 @@ fn boundary_points(
             }
             let theta_d = (edge.cos() / r).acos() - b.atan2(a);
             if theta_d > 0.0 && theta_d < theta_d_max {
-                out.push(reduction.coordinates.map(theta_h, theta_d, phi_d, dim));
+                out.push(reduction.point(theta_h, theta_d, phi_d));
             }
         }
     }
@@ -300,9 +300,9 @@ pub(crate) fn hold_below_cap(
     c: usize,
     cap: f64,
 ) -> Result<(FitReport, CapCheck), FitError> {
-    let coordinates = s.reduction().coordinates;
+    let reduction = *s.reduction();
     let cap_at = |x: &[f64]| match s.lobe() {
-        Some(lobe) => cap / lobe.factors_at(coordinates.angles(x), s.colour_mode())[c],
+        Some(lobe) => cap / lobe.factors_at(reduction.angles(x), s.colour_mode())[c],
         None => cap,
     };
     let started = std::time::Instant::now();
@@ -369,10 +369,7 @@ mod tests {
         let samples = reduction.sample(&lambert);
         let (data, _) = samples.channel(0, 0.1, 1e-2).unwrap();
         let grid = cap_grid(&data, &reduction);
-        let angles: Vec<[f64; 3]> = grid
-            .iter()
-            .map(|x| reduction.coordinates.angles(x))
-            .collect();
+        let angles: Vec<[f64; 3]> = grid.iter().map(|x| reduction.angles(x)).collect();
         // The cells' centres stop half a bin short of each end; the grid
         // goes to the ends (theta_d to the inset horizon, phi_d to 0 and pi).
         let max_theta_d = angles.iter().map(|a| a[1]).fold(0.0, f64::max);
@@ -399,7 +396,7 @@ mod tests {
         let cut = reduction.max_elevation_deg;
         let elevations: Vec<f64> = grid
             .iter()
-            .map(|x| crate::design::max_elevation_deg(reduction.coordinates.angles(x)))
+            .map(|x| crate::design::max_elevation_deg(reduction.angles(x)))
             .collect();
         assert!(
             elevations.iter().all(|&e| e <= cut + 1e-6),

@@ -186,12 +186,7 @@ impl FittedBrdf {
     pub fn coordinates(&self, wi: Vec3, wo: Vec3) -> Vec<f64> {
         let [theta_h, theta_d, phi_d] = HalfDiff::isotropic_angles(wi, wo);
         let td = theta_d.min(self.reduction.max_theta_d_deg.to_radians());
-        self.reduction.coordinates.map(
-            theta_h,
-            td,
-            crate::geometry::fold_phi_d(phi_d),
-            self.reduction.dims(),
-        )
+        (self.reduction).point(theta_h, td, crate::geometry::fold_phi_d(phi_d))
     }
 
     /// Evaluates every channel in f64 and makes RGB by the colour mode;

@@ -478,7 +478,7 @@ fn assemble(
 ) -> (FittedBrdf, BrdfFitReport) {
     let (channels, mut reports): (Vec<_>, Vec<_>) = parts.into_iter().unzip();
     let fitted = FittedBrdf {
-        reduction: settings.reduction,
+        reduction: settings.reduction.as_fitted(),
         channels,
         mode: settings.mode,
         scale: settings.scale,
@@ -498,9 +498,7 @@ fn assemble(
         {
             let r = &settings.reduction;
             let [th, td, pd] = row.angles;
-            let x = r
-                .coordinates
-                .map(th, td.min(r.max_theta_d_deg.to_radians()), pd, r.dims());
+            let x = r.point(th, td.min(r.max_theta_d_deg.to_radians()), pd);
             // Each function against its own data (luminance or a ratio in
             // the luminance-chroma mode).
             let lobe = settings
@@ -520,7 +518,7 @@ fn assemble(
     }
     let report = BrdfFitReport {
         material: name.to_string(),
-        reduction: settings.reduction,
+        reduction: settings.reduction.as_fitted(),
         rel_tol: settings.design.map_or(settings.rel_tol, |d| d.rel_tol),
         noise_floor: settings.noise_floor,
         design: settings.design,

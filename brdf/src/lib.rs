@@ -76,7 +76,7 @@ pub use lobe::{Lobe, LobeF32, LOBE_ALPHA_RANGE};
 pub use material::Brdf;
 pub use merl::{MerlBrdf, TabulateOptions};
 pub use no_fit::NoFitMemo;
-pub use reduce::{Coordinates, Reduction, ReductionKind, Samples, MAX_BINS};
+pub use reduce::{Coordinates, PhiCoordinate, Reduction, ReductionKind, Samples, MAX_BINS};
 pub use rgl::RglBrdf;
 pub use shell::{
     ShellColour, ShellFactor, ShellLayout, ThetaDSpacing, DEFAULT_SHELL_BINS, MAX_SHELL_BINS,

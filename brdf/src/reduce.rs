@@ -65,6 +65,72 @@ impl Coordinates {
     }
 }
 
+/// How `phi_d` (folded into `[0, pi]`) enters a 3-D reduction's fitting
+/// coordinates.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+#[non_exhaustive]
+pub enum PhiCoordinate {
+    /// `phi_d` in radians.
+    #[default]
+    Radians,
+    /// `cos phi_d`, over `[-1, 1]`. Folded by mirror symmetry, an isotropic
+    /// BRDF is an even function of `phi_d` about 0 and about pi, so a
+    /// smooth function of `cos phi_d` (its cosine series in `phi_d` is a
+    /// Chebyshev series in `cos phi_d`): a polynomial in `cos phi_d` has
+    /// the zero slope at both folds that a polynomial in `phi_d` spends
+    /// degrees to approach.
+    Cosine,
+}
+
+impl PhiCoordinate {
+    /// The fitting coordinate of a folded `phi_d`.
+    pub fn map(self, phi_d: f64) -> f64 {
+        match self {
+            PhiCoordinate::Radians => phi_d,
+            PhiCoordinate::Cosine => phi_d.cos(),
+        }
+    }
+
+    /// The folded `phi_d` of a fitting coordinate (the inverse of
+    /// [`PhiCoordinate::map`]).
+    pub fn angle(self, x: f64) -> f64 {
+        match self {
+            PhiCoordinate::Radians => x,
+            PhiCoordinate::Cosine => x.clamp(-1.0, 1.0).acos(),
+        }
+    }
+
+    /// Whether this is the default, [`PhiCoordinate::Radians`] (left out
+    /// of fit files).
+    pub fn is_radians(&self) -> bool {
+        *self == PhiCoordinate::Radians
+    }
+}
+
+impl std::fmt::Display for PhiCoordinate {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            PhiCoordinate::Radians => "radians",
+            PhiCoordinate::Cosine => "cosine",
+        })
+    }
+}
+
+impl std::str::FromStr for PhiCoordinate {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "radians" => Ok(PhiCoordinate::Radians),
+            "cosine" => Ok(PhiCoordinate::Cosine),
+            other => Err(format!(
+                "unknown phi_d coordinate {other:?} (radians or cosine)"
+            )),
+        }
+    }
+}
+
 /// How a BRDF is sampled for fitting.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Reduction {
@@ -85,6 +151,9 @@ pub struct Reduction {
     /// are not sampled: near the horizon, measured tables divide small noisy
     /// values by a vanishing cosine.
     pub max_elevation_deg: f64,
+    /// How `phi_d` enters the fitting coordinates of a 3-D reduction.
+    #[serde(default, skip_serializing_if = "PhiCoordinate::is_radians")]
+    pub phi: PhiCoordinate,
 }
 
 impl Default for Reduction {
@@ -100,6 +169,7 @@ impl Default for Reduction {
             n_phi_d: 180,
             max_theta_d_deg: 78.0,
             max_elevation_deg: 70.0,
+            phi: PhiCoordinate::Radians,
         }
     }
 }
@@ -151,6 +221,43 @@ impl Reduction {
         self
     }
 
+    /// Sets how `phi_d` enters the fitting coordinates (3-D reductions).
+    pub fn with_phi(mut self, phi: PhiCoordinate) -> Self {
+        self.phi = phi;
+        self
+    }
+
+    /// This reduction as a fit records it: a 2-D fit has no third
+    /// coordinate, so it records `phi_d` as the default (radians, left out
+    /// of fit files), whatever the settings it came from said.
+    pub fn as_fitted(self) -> Self {
+        match self.dims() {
+            3 => self,
+            _ => self.with_phi(PhiCoordinate::Radians),
+        }
+    }
+
+    /// Fitting coordinates of Rusinkiewicz angles (`phi_d` folded into
+    /// `[0, pi]`), in this reduction's coordinates and number of them.
+    pub fn point(&self, theta_h: f64, theta_d: f64, phi_d: f64) -> Vec<f64> {
+        let mut x = self.coordinates.map(theta_h, theta_d, phi_d, self.dims());
+        if let Some(p) = x.get_mut(2) {
+            *p = self.phi.map(*p);
+        }
+        x
+    }
+
+    /// Rusinkiewicz angles of fitting coordinates (the inverse of
+    /// [`Reduction::point`]); a 2-D point is on the slice `phi_d = pi / 2`.
+    pub fn angles(&self, x: &[f64]) -> [f64; 3] {
+        let [theta_h, theta_d, phi_d] = self.coordinates.angles(x);
+        [
+            theta_h,
+            theta_d,
+            x.get(2).map_or(phi_d, |&p| self.phi.angle(p)),
+        ]
+    }
+
     /// Sets the `theta_h` and `theta_d` resolutions.
     pub fn with_resolution(mut self, n_theta_h: usize, n_theta_d: usize) -> Self {
         self.n_theta_h = n_theta_h.max(2);
@@ -191,9 +298,8 @@ impl Reduction {
     pub fn domain(&self) -> (Vec<f64>, Vec<f64>) {
         let horizon = PI / 2.0 - HORIZON_INSET_RAD;
         let theta_d_max = self.max_theta_d_deg.to_radians().min(horizon);
-        let dims = self.dims();
-        let a = self.coordinates.map(0.0, 0.0, 0.0, dims);
-        let b = self.coordinates.map(horizon, theta_d_max, PI, dims);
+        let a = self.point(0.0, 0.0, 0.0);
+        let b = self.point(horizon, theta_d_max, PI);
         (
             a.iter().zip(&b).map(|(x, y)| x.min(*y)).collect(),
             a.iter().zip(&b).map(|(x, y)| x.max(*y)).collect(),
@@ -256,7 +362,7 @@ impl Reduction {
                     }
                 }
                 Some(SampleRow {
-                    point: self.coordinates.map(th, td, pd, dims),
+                    point: self.point(th, td, pd),
                     cell: Some(cell),
                     angles: [th, td, pd],
                     value: value.0,
@@ -418,5 +524,39 @@ impl Samples {
         let data =
             rational_core::IntervalData::new(self.dims, points, lo, hi)?.with_values(values)?;
         Ok((data, used))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn cos_phi_d_points_map_back_to_their_angles_and_span_minus_one_to_one() {
+        let r = Reduction::default()
+            .with_kind(ReductionKind::Full3d)
+            .with_phi(PhiCoordinate::Cosine);
+        for &(th, td, pd) in &[(0.1, 0.4, 0.0), (0.7, 1.1, 1.3), (0.02, 0.3, PI)] {
+            let x = r.point(th, td, pd);
+            assert!((x[2] - pd.cos()).abs() < 1e-15, "{x:?}");
+            let back = r.angles(&x);
+            for (a, b) in back.iter().zip([th, td, pd]) {
+                assert!((a - b).abs() < 1e-9, "{back:?} against {:?}", [th, td, pd]);
+            }
+        }
+        let (lower, upper) = r.domain();
+        assert_eq!((lower[2], upper[2]), (-1.0, 1.0));
+        // A slice has no third coordinate, records none, and radians stay
+        // the default.
+        let slice = r.with_kind(ReductionKind::Slice2d);
+        assert_eq!(slice.point(0.1, 0.4, 1.0).len(), 2);
+        assert_eq!(slice.as_fitted().phi, PhiCoordinate::Radians);
+        assert_eq!(r.as_fitted(), r);
+        assert_eq!(Reduction::default().phi, PhiCoordinate::Radians);
+        for phi in [PhiCoordinate::Radians, PhiCoordinate::Cosine] {
+            assert_eq!(phi.to_string().parse::<PhiCoordinate>(), Ok(phi));
+        }
+        let e = "sine".parse::<PhiCoordinate>().unwrap_err();
+        assert!(e.contains("sine") && e.contains("radians or cosine"), "{e}");
     }
 }

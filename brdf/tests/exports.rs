@@ -3,8 +3,8 @@
 use brdf::shader::{shader_source, shader_source_named, Language};
 use brdf::{
     compact::to_f32, fit_brdf, from_spherical, BatchedFit, BlinnPhong, Brdf, BrdfFitSettings,
-    ColourMode, CompactBrdf, CookTorranceGgx, Coordinates, FittedBrdf, Lobe, Reduction,
-    ReductionKind, ShellColour, ShellFactor, ShellLayout, ThetaDSpacing, ValueScale,
+    ColourMode, CompactBrdf, CookTorranceGgx, Coordinates, FittedBrdf, Lobe, PhiCoordinate,
+    Reduction, ReductionKind, ShellColour, ShellFactor, ShellLayout, ThetaDSpacing, ValueScale,
 };
 
 fn fits() -> Vec<FittedBrdf> {
@@ -122,6 +122,17 @@ fn fits() -> Vec<FittedBrdf> {
     let within = out[log].evaluated_within(60.0).unwrap();
     let shell = ShellFactor::fit_layout(&m, &within, layout.cosine()).unwrap();
     out.push(within.with_shell(shell).unwrap());
+    // `cos phi_d` as the third coordinate: every evaluator, export and
+    // shader maps `phi_d` the same way.
+    let r = Reduction::default()
+        .with_kind(ReductionKind::Full3d)
+        .with_resolution(12, 12)
+        .with_phi_resolution(8)
+        .with_phi(PhiCoordinate::Cosine)
+        .whole_hemisphere();
+    let (f, _) = fit_brdf(&b, &BrdfFitSettings::default().with_reduction(r)).unwrap();
+    assert_eq!(f.reduction.phi, PhiCoordinate::Cosine);
+    out.push(f);
     out
 }
 
@@ -279,6 +290,11 @@ fn compact_binary_round_trips() {
                         .is_some_and(|sh| sh.colour == ShellColour::PerFunction)
                 ) << 7),
             "flags byte"
+        );
+        assert_eq!(
+            bytes[4] & 0x20 != 0,
+            f.reduction.phi == PhiCoordinate::Cosine,
+            "bit 5 of the coordinates byte marks cos phi_d"
         );
         if let Some(sh) = &f.shell {
             assert_eq!(bytes[shell_at..shell_at + 2], [6, 3]);
@@ -484,6 +500,11 @@ fn alta_export_reads_back_and_evaluates_the_same() {
         if f.reduction.coordinates != Coordinates::Radians {
             let e = exported.unwrap_err().to_string();
             assert!(e.contains("radians"), "{e}");
+            continue;
+        }
+        if f.reduction.phi != PhiCoordinate::Radians {
+            let e = exported.unwrap_err().to_string();
+            assert!(e.contains("cos phi_d"), "{e}");
             continue;
         }
         let alta = exported.unwrap();

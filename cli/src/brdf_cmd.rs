@@ -137,6 +137,12 @@ pub struct FitArgs {
     /// giving `--values` replaces by that scale in every search.
     #[arg(long)]
     values: Option<brdf::ValueScale>,
+    /// How `phi_d` enters a 3-D fit's coordinates: in radians, or as its
+    /// cosine (an isotropic BRDF folded by mirror symmetry is a smooth
+    /// function of `cos phi_d`, which often needs fewer coefficients).
+    /// Default: radians; cosine with `--target-de`.
+    #[arg(long)]
+    phi: Option<brdf::PhiCoordinate>,
     /// Lobe times rational: fit a Cook-Torrance GGX lobe to the table
     /// first (several starts, log error), then fit the ratio of the table
     /// to the lobe, which is smooth where the lobe has the right shape
@@ -187,6 +193,9 @@ fn reduction(args: &FitArgs) -> Result<Reduction> {
         .with_max_theta_d(args.max_theta_d);
     if let Some(degrees) = args.max_elevation {
         r = r.with_max_elevation(degrees);
+    }
+    if let Some(phi) = args.phi {
+        r = r.with_phi(phi);
     }
     if kind == ReductionKind::Full3d {
         // The full MERL grid is 1.46 M cells per channel; default to a 45^3 subgrid.
@@ -383,7 +392,8 @@ fn run_fit_target(
         } else {
             ReductionKind::Full3d
         })
-        .whole_hemisphere();
+        .whole_hemisphere()
+        .with_phi(args.phi.unwrap_or(render_cpu::fidelity::TARGET_PHI));
     reduction = within_cut(reduction, args);
     if args.resolution.is_none() {
         reduction = render_cpu::fidelity::on_target_grid(reduction);

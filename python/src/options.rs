@@ -98,6 +98,8 @@ pub(crate) struct BrdfOptions {
     pub colour: Option<String>,
     /// `"linear"` or `"log"` ([`brdf::ValueScale`]).
     pub values: Option<String>,
+    /// `"radians"` or `"cosine"` ([`brdf::PhiCoordinate`]).
+    pub phi: Option<String>,
     pub lobe: bool,
     pub render_check: bool,
 }
@@ -127,6 +129,7 @@ impl Default for BrdfOptions {
             cap_rounds: 2,
             colour: None,
             values: None,
+            phi: None,
             lobe: false,
             render_check: true,
         }
@@ -136,7 +139,7 @@ impl Default for BrdfOptions {
 /// The option names, for the error that refuses another.
 const OPTION_NAMES: &str = "format, dims, spread, coords, rel_tol, noise_floor, max_coeffs, \
      max_theta_d, max_elevation, resolution, backend, poles, search, max_widenings, target_de, \
-     time_budget, max_bytes, degree_weights, perceptual, cap_rounds, colour, values, lobe, render_check";
+     time_budget, max_bytes, degree_weights, perceptual, cap_rounds, colour, values, phi, lobe, render_check";
 
 fn bad(name: &str, reason: impl std::fmt::Display) -> PyErr {
     PyValueError::new_err(format!("option `{name}`: {reason}"))
@@ -241,6 +244,7 @@ impl BrdfOptions {
                 }
                 "colour" | "color" => o.colour = Some(get(n, &v)?),
                 "values" => o.values = Some(get(n, &v)?),
+                "phi" => o.phi = Some(get(n, &v)?),
                 "lobe" => o.lobe = get(n, &v)?,
                 "render_check" => o.render_check = get(n, &v)?,
                 _ => return Err(bad(n, format!("unknown (options: {OPTION_NAMES})"))),
@@ -369,7 +373,14 @@ impl BrdfOptions {
                 r = r.with_phi_resolution(p);
             }
         }
-        Ok(r)
+        // `phi_d` as `ratfit fit --phi`: radians unless named, its cosine
+        // with `target_de`.
+        let phi = match &self.phi {
+            Some(p) => p.parse().map_err(|e| bad("phi", e))?,
+            None if self.target_de.is_some() => render_cpu::fidelity::TARGET_PHI,
+            None => brdf::PhiCoordinate::Radians,
+        };
+        Ok(r.with_phi(phi))
     }
 
     /// The colour mode: the option, else RGB (luminance-chroma with

@@ -122,6 +122,16 @@ def test_channels_fitted_apart_join_into_the_same_fit(military_green, fitted):
     assert json.loads(joined.to_json())["brdf"] == json.loads(fitted.to_json())["brdf"]
 
 
+def test_phi_d_as_its_cosine_is_recorded_and_round_trips(military_green):
+    options = {**SMALL, "dims": 3, "resolution": (8, 8, 8), "rel_tol": 0.2, "phi": "cosine"}
+    cos = ratfit.fit_brdf(military_green, **options)
+    assert json.loads(cos.to_json())["brdf"]["reduction"]["phi"] == "cosine"
+    assert all(c["verified"] for c in cos.report["report"]["channels"])
+    wi, wo = directions(16, 2)
+    back = ratfit.FittedMaterial.from_json(cos.to_json())
+    assert np.array_equal(back.eval(wi, wo), cos.eval(wi, wo))
+
+
 @pytest.mark.parametrize(
     "options, message",
     [
@@ -132,6 +142,7 @@ def test_channels_fitted_apart_join_into_the_same_fit(military_green, fitted):
         (dict(resolution=(1, 2)), "resolution"),
         (dict(colour="cmyk"), "colour"),
         (dict(values="exp"), "values"),
+        (dict(phi="sine"), "phi"),
         (dict(target_de=-1.0), "target_de"),
         (dict(target_de=1.0, max_bytes=4), "max_bytes"),
         (dict(max_bytes=1024), "max_bytes"),

@@ -84,7 +84,13 @@ fn indices(dims: usize, degree: u16) -> Vec<Vec<u16>> {
 fn synthetic(family: BasisFamily, coordinates: Coordinates, dims: usize, seed: u64) -> CompactBrdf {
     let mut rng = Rng::new(seed);
     let max_theta_d = 80f32.to_radians();
-    let (lower, upper) = match coordinates {
+    // Half of the 3-D ones with `cos phi_d` as the third coordinate.
+    let phi = if dims == 3 && seed % 4 == 3 {
+        brdf::PhiCoordinate::Cosine
+    } else {
+        brdf::PhiCoordinate::Radians
+    };
+    let (mut lower, mut upper) = match coordinates {
         Coordinates::Radians => (
             vec![0.0, 0.0, 0.0],
             vec![
@@ -103,6 +109,9 @@ fn synthetic(family: BasisFamily, coordinates: Coordinates, dims: usize, seed: u
         ),
         other => panic!("no synthetic domain for {other:?}"),
     };
+    if phi == brdf::PhiCoordinate::Cosine {
+        (lower[2], upper[2]) = (-1.0, 1.0);
+    }
     let idx = indices(dims, if dims == 2 { 6 } else { 4 });
     let n = idx.len();
     let channels = (0..3)
@@ -149,6 +158,7 @@ fn synthetic(family: BasisFamily, coordinates: Coordinates, dims: usize, seed: u
             alpha: 0.3,
         }),
         coordinates,
+        phi,
         dims,
         max_theta_d,
         // Half of them with an elevation cut, which the shader applies.
@@ -238,7 +248,7 @@ fn batch_evaluation_agrees_with_the_cpu_f32_path_in_every_family_and_coordinate_
                 let fit = synthetic(family, coordinates, dims, seed);
                 let kernel = BatchEvaluator::new(&ctx, &fit).unwrap();
                 let values = kernel.eval(&p).unwrap();
-                let name = format!("{family:?} {coordinates:?} {dims}-D");
+                let name = format!("{family:?} {coordinates:?} {dims}-D, phi_d {}", fit.phi);
                 let worst = check_agreement(&name, &fit, &p, &values);
                 eprintln!("{name}: largest error {worst:.3} of the tolerance");
                 if let Some(c) = fit.ceiling {
@@ -288,6 +298,7 @@ fn gpu_coordinates_match_the_f64_half_difference_angles() {
         lobe: None,
         ceiling: None,
         coordinates: Coordinates::Radians,
+        phi: brdf::PhiCoordinate::Radians,
         dims: 3,
         max_theta_d: pi,
         max_elevation: pi / 2.0,

@@ -65,6 +65,10 @@ pub struct FidelityArgs {
     /// linear, log; see `ratfit fit --values`).
     #[arg(long, value_delimiter = ',', default_value = "linear,log")]
     values: Vec<brdf::ValueScale>,
+    /// How `phi_d` enters the 3-D fits' coordinates (comma-separated:
+    /// radians, cosine; see `ratfit fit --phi`).
+    #[arg(long, value_delimiter = ',', default_value = "radians,cosine")]
+    phi: Vec<brdf::PhiCoordinate>,
     /// Bins per angle of the 3-D grid.
     #[arg(long, default_value_t = 24)]
     resolution_3d: usize,
@@ -363,6 +367,11 @@ fn settings_and_plan(args: &FidelityArgs) -> (ValidationSettings, Plan) {
             vec![brdf::ValueScale::Linear, brdf::ValueScale::Log]
         } else {
             args.values.clone()
+        },
+        phis: if args.quick {
+            vec![brdf::PhiCoordinate::Radians, brdf::PhiCoordinate::Cosine]
+        } else {
+            args.phi.clone()
         },
         tols: if args.quick {
             vec![0.16]

@@ -26,6 +26,7 @@ pub(super) struct Plan {
     pub(super) modes: Vec<ColourMode>,
     pub(super) lobes: Vec<LobeChoice>,
     pub(super) values: Vec<brdf::ValueScale>,
+    pub(super) phis: Vec<brdf::PhiCoordinate>,
     pub(super) tols: Vec<f64>,
     pub(super) resolution_3d: usize,
     pub(super) cut_3d: Option<f64>,
@@ -86,6 +87,7 @@ pub(super) fn rational_reps(table: &Arc<dyn Brdf>, plan: &Plan) -> Vec<Attempt> 
             dims: 2,
             resolution: 90,
             cut: None,
+            phi: brdf::PhiCoordinate::Radians,
         };
         let shape = rational_mode::Shape {
             mode: ColourMode::Rgb,
@@ -107,13 +109,13 @@ pub(super) fn rational_reps(table: &Arc<dyn Brdf>, plan: &Plan) -> Vec<Attempt> 
     let combinations = plan.tols.iter().flat_map(|&t| {
         plan.modes.iter().flat_map(move |&mode| {
             plan.lobes.iter().flat_map(move |&choice| {
-                plan.values
-                    .iter()
-                    .map(move |&scale| (t, mode, choice, scale))
+                plan.values.iter().flat_map(move |&scale| {
+                    (plan.phis.iter()).map(move |&phi| (t, mode, choice, scale, phi))
+                })
             })
         })
     });
-    for (t, mode, choice, scale) in combinations {
+    for (t, mode, choice, scale, phi) in combinations {
         let start = Instant::now();
         let (with, lobe_s) = match (choice, &lobe) {
             (LobeChoice::Ggx, Some((l, s))) => (Some(*l), *s),
@@ -123,6 +125,7 @@ pub(super) fn rational_reps(table: &Arc<dyn Brdf>, plan: &Plan) -> Vec<Attempt> 
             dims: 3,
             resolution: plan.resolution_3d,
             cut: plan.cut_3d,
+            phi,
         };
         let shape = rational_mode::Shape {
             mode,
@@ -137,9 +140,13 @@ pub(super) fn rational_reps(table: &Arc<dyn Brdf>, plan: &Plan) -> Vec<Attempt> 
             format!(" {scale}")
         };
         let cut = plan.cut_3d.map_or(String::new(), |c| format!(" cut {c}"));
+        let phi_name = match phi {
+            brdf::PhiCoordinate::Cosine => " cos phi_d",
+            _ => "",
+        };
         let mut attempt = Attempt::timed(
             format!(
-                "rational 3-D {mode}{log_name}{lobe_name} {}%{cut}",
+                "rational 3-D {mode}{log_name}{lobe_name}{phi_name} {}%{cut}",
                 t * 100.0
             ),
             start,
@@ -300,6 +307,8 @@ mod rational_mode {
         pub resolution: usize,
         /// An elevation cut in degrees; `None`: the whole hemisphere.
         pub cut: Option<f64>,
+        /// How `phi_d` enters a 3-D grid's coordinates.
+        pub phi: brdf::PhiCoordinate,
     }
 
     /// What a perceptual fit's functions are.
@@ -327,6 +336,7 @@ mod rational_mode {
             dims,
             resolution,
             cut,
+            phi,
         } = grid;
         let kind = if dims == 3 {
             ReductionKind::Full3d
@@ -337,6 +347,7 @@ mod rational_mode {
             .with_kind(kind)
             .with_resolution(resolution, resolution)
             .with_phi_resolution(resolution)
+            .with_phi(phi)
             .whole_hemisphere();
         let reduction = match cut {
             Some(degrees) => reduction.with_max_elevation(degrees),

@@ -4,7 +4,7 @@
 //! then the value), numerator first. Inputs are mapped from `[MIN, MAX]` to
 //! `[-1, 1]` per coordinate, as in ALTA's `rational_function_chebychev`.
 
-use crate::{BrdfError, Coordinates, FittedBrdf};
+use crate::{BrdfError, Coordinates, FittedBrdf, PhiCoordinate};
 use rational_core::BasisFamily;
 use std::fmt::Write as _;
 use std::path::Path;
@@ -129,6 +129,13 @@ impl AltaRational {
                     "ALTA has no parametrisation for {:?} coordinates; refit in radians",
                     fit.reduction.coordinates
                 ),
+            });
+        }
+        if fit.reduction.dims() == 3 && fit.reduction.phi != PhiCoordinate::Radians {
+            return Err(BrdfError::Invalid {
+                name: "ALTA export",
+                reason: "ALTA has no parametrisation for cos phi_d; refit with phi_d in radians"
+                    .into(),
             });
         }
         let dim_in = fit.reduction.dims();

@@ -7,7 +7,7 @@ use crate::colour::ColourMode;
 use crate::fitted::FittedBrdf;
 use crate::geometry::Vec3;
 use crate::lobe::LobeF32;
-use crate::reduce::{Coordinates, Reduction};
+use crate::reduce::{Coordinates, PhiCoordinate, Reduction};
 use crate::shell::{ShellColour, ThetaDSpacing};
 use crate::value_scale::ValueScale;
 use crate::BrdfError;
@@ -46,6 +46,8 @@ pub struct CompactChannel {
 pub struct CompactBrdf {
     /// Coordinates of the fit.
     pub coordinates: Coordinates,
+    /// How `phi_d` enters the coordinates of a 3-D fit.
+    pub phi: PhiCoordinate,
     /// Number of coordinates.
     pub dims: usize,
     /// Grazing cut in radians (`theta_d` is clamped to it).
@@ -338,6 +340,7 @@ impl CompactBrdf {
             .collect();
         Self {
             coordinates: f.reduction.coordinates,
+            phi: f.reduction.phi,
             dims: f.reduction.dims(),
             max_theta_d: f.reduction.max_theta_d_deg.to_radians() as f32,
             max_elevation: f.reduction.max_elevation_deg.min(90.0).to_radians() as f32,
@@ -365,7 +368,11 @@ impl CompactBrdf {
             Coordinates::SqrtThetaH => ((th.max(0.0) / (PI / 2.0)).sqrt(), td),
             Coordinates::Cosines => (th.cos(), td.cos()),
         };
-        [a, b, pd]
+        let p = match self.phi {
+            PhiCoordinate::Radians => pd,
+            PhiCoordinate::Cosine => pd.cos(),
+        };
+        [a, b, p]
     }
 
     /// RGB in f32 (zero below the horizon, negative values clamped).
@@ -443,7 +450,8 @@ impl CompactBrdf {
     /// `1 - cos theta_d`. Bits 6 and 7 of the coordinates byte give the
     /// functions' scale: 0 linear, 1 ([`ValueScale::Log`]) every function
     /// on the log scale, 2 ([`ValueScale::LogLight`]) those that carry
-    /// light.
+    /// light; its bit 5 marks `cos phi_d` as the third coordinate
+    /// ([`PhiCoordinate::Cosine`]).
     pub fn to_bytes(&self) -> Vec<u8> {
         let mut out = b"RFB1".to_vec();
         let coords = match self.coordinates {
@@ -454,7 +462,8 @@ impl CompactBrdf {
             ValueScale::Log => 1u8,
             ValueScale::LogLight => 2,
             _ => 0,
-        } << 6);
+        } << 6)
+            | (u8::from(self.phi == PhiCoordinate::Cosine) << 5);
         let weighted = self
             .channels
             .iter()
@@ -532,7 +541,12 @@ impl CompactBrdf {
             2 => ValueScale::LogLight,
             _ => return Err(bad("unknown value scale code")),
         };
-        let coordinates = match b[4] & 0x3f {
+        let phi = if b[4] & 0x20 == 0 {
+            PhiCoordinate::Radians
+        } else {
+            PhiCoordinate::Cosine
+        };
+        let coordinates = match b[4] & 0x1f {
             0 => Coordinates::Radians,
             1 => Coordinates::SqrtThetaH,
             2 => Coordinates::Cosines,
@@ -606,6 +620,7 @@ impl CompactBrdf {
             ceiling,
             shell,
             coordinates,
+            phi,
             dims,
             max_theta_d,
             max_elevation,
@@ -786,7 +801,12 @@ pub fn to_f32(v: Vec3) -> [f32; 3] {
 
 /// The reduction a compact fit corresponds to (for reports).
 pub fn describe(r: &Reduction) -> String {
-    format!("{:?} in {:?} coordinates", r.kind, r.coordinates)
+    match (r.dims(), r.phi) {
+        (3, PhiCoordinate::Cosine) => {
+            format!("{:?} in {:?} coordinates, cos phi_d", r.kind, r.coordinates)
+        }
+        _ => format!("{:?} in {:?} coordinates", r.kind, r.coordinates),
+    }
 }
 
 #[cfg(test)]

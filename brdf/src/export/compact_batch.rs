@@ -16,7 +16,7 @@ use crate::compact::{CompactBrdf, CompactChannel};
 use crate::fitted::FittedBrdf;
 use crate::geometry::Vec3;
 use crate::lobe::Lobe;
-use crate::Coordinates;
+use crate::{Coordinates, PhiCoordinate};
 use rational_core::BasisFamily;
 use std::f32::consts::{FRAC_PI_2, FRAC_PI_4, PI};
 use std::ops::{Add, AddAssign, Div, Mul, Sub};
@@ -298,6 +298,7 @@ trait BatchForm {
     type T: Real;
     fn dims(&self) -> usize;
     fn coordinates(&self) -> Coordinates;
+    fn phi(&self) -> PhiCoordinate;
     fn max_theta_d(&self) -> Self::T;
     /// `(sin, cos)` of the elevation cut, when there is one.
     fn cut(&self) -> Option<(Self::T, Self::T)>;
@@ -356,7 +357,11 @@ fn eval_lanes<F: BatchForm>(
         ),
         Coordinates::Cosines => (map1(&th, Real::cos), map1(&td, Real::cos)),
     };
-    let x = [a, b, pd];
+    let p = match form.phi() {
+        PhiCoordinate::Radians => pd,
+        PhiCoordinate::Cosine => map1(&pd, Real::cos),
+    };
+    let x = [a, b, p];
     let v: [Lanes<F::T>; 3] =
         std::array::from_fn(|c| channel_lanes(&form.channel(c), &x, form.dims(), tables));
     for (l, o) in out.iter_mut().enumerate() {
@@ -410,6 +415,9 @@ impl BatchForm for CompactBrdf {
     }
     fn coordinates(&self) -> Coordinates {
         self.coordinates
+    }
+    fn phi(&self) -> PhiCoordinate {
+        self.phi
     }
     fn max_theta_d(&self) -> f32 {
         self.max_theta_d
@@ -533,6 +541,9 @@ impl BatchForm for BatchedFit {
     }
     fn coordinates(&self) -> Coordinates {
         self.fit.reduction.coordinates
+    }
+    fn phi(&self) -> PhiCoordinate {
+        self.fit.reduction.phi
     }
     fn max_theta_d(&self) -> f64 {
         self.fit.reduction.max_theta_d_deg.to_radians()

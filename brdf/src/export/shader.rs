@@ -5,7 +5,7 @@
 
 use crate::colour::ColourMode;
 use crate::compact::{CompactBrdf, CompactChannel};
-use crate::reduce::Coordinates;
+use crate::reduce::{Coordinates, PhiCoordinate};
 use crate::shell::{ShellColour, ThetaDSpacing};
 use crate::value_scale::ValueScale;
 use crate::BrdfError;
@@ -405,7 +405,11 @@ fn coords_fn(b: &CompactBrdf, l: Language, prefix: &str) -> String {
         ),
         Coordinates::Cosines => ("cos(theta_h)".to_string(), "cos(theta_d)".to_string()),
     };
-    out += &format!("    return {v3}({a}, {bb}, phi_d);\n}}\n\n");
+    let p = match b.phi {
+        PhiCoordinate::Radians => "phi_d",
+        PhiCoordinate::Cosine => "cos(phi_d)",
+    };
+    out += &format!("    return {v3}({a}, {bb}, {p});\n}}\n\n");
     out
 }
 

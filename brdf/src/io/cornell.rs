@@ -193,7 +193,7 @@ impl ScatteredBrdf {
                 let hd = HalfDiff::from_directions(wi, wo);
                 let pd = hd.folded_phi_d();
                 SampleRow {
-                    point: reduction.coordinates.map(hd.theta_h, hd.theta_d, pd, dims),
+                    point: reduction.point(hd.theta_h, hd.theta_d, pd),
                     cell: None,
                     angles: [hd.theta_h, hd.theta_d, pd],
                     value: rgb,

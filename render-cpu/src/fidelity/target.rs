@@ -166,9 +166,14 @@ pub fn on_target_grid(reduction: brdf::Reduction) -> brdf::Reduction {
     }
 }
 
+/// How `phi_d` enters a target fit's 3-D coordinates unless its caller
+/// names it: as `cos phi_d`, in which the same intervals mostly need fewer
+/// coefficients (docs/results/fidelity-2026-12-06-cos-phi.md).
+pub const TARGET_PHI: brdf::PhiCoordinate = brdf::PhiCoordinate::Cosine;
+
 /// The settings a target fit starts from: the 3-D grid of
-/// [`TARGET_GRID_3D`] over the whole hemisphere, the luminance-chroma
-/// mode, the perceptual design (its half-width is the search's) and
+/// [`TARGET_GRID_3D`] with `phi_d` as [`TARGET_PHI`] over the whole
+/// hemisphere, the luminance-chroma mode, the perceptual design (its half-width is the search's) and
 /// `engine` (ratfit's commands give it the staircase search), without
 /// baselines. Callers change what their user chose: the grid or an
 /// elevation cut, the colour mode, a lobe.
@@ -176,6 +181,7 @@ pub fn target_settings(engine: rational_core::FitSettings) -> brdf::BrdfFitSetti
     let reduction = on_target_grid(
         brdf::Reduction::default()
             .with_kind(brdf::ReductionKind::Full3d)
+            .with_phi(TARGET_PHI)
             .whole_hemisphere(),
     );
     brdf::BrdfFitSettings::default()
