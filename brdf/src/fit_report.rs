@@ -148,15 +148,9 @@ impl fmt::Display for BrdfFitReport {
         let r = &self.reduction;
         writeln!(
             f,
-            "{}: {:?} in {:?} coordinates{}, theta_d <= {} deg, intervals +-{}% (noise floor {:e} of the median)",
+            "{}: {}, theta_d <= {} deg, intervals +-{}% (noise floor {:e} of the median)",
             self.material,
-            r.kind,
-            r.coordinates,
-            if r.dims() == 3 && r.phi == crate::PhiCoordinate::Cosine {
-                ", cos phi_d"
-            } else {
-                ""
-            },
+            r.label(),
             r.max_theta_d_deg,
             self.rel_tol * 100.0,
             self.noise_floor

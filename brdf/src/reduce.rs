@@ -237,6 +237,16 @@ impl Reduction {
         }
     }
 
+    /// The reduction's kind and coordinates as reports name them, with
+    /// `cos phi_d` where that is a 3-D fit's third coordinate.
+    pub fn label(&self) -> String {
+        let phi = match (self.dims(), self.phi) {
+            (3, PhiCoordinate::Cosine) => ", cos phi_d",
+            _ => "",
+        };
+        format!("{:?} in {:?} coordinates{phi}", self.kind, self.coordinates)
+    }
+
     /// Fitting coordinates of Rusinkiewicz angles (`phi_d` folded into
     /// `[0, pi]`), in this reduction's coordinates and number of them.
     pub fn point(&self, theta_h: f64, theta_d: f64, phi_d: f64) -> Vec<f64> {
@@ -553,6 +563,9 @@ mod tests {
         assert_eq!(slice.as_fitted().phi, PhiCoordinate::Radians);
         assert_eq!(r.as_fitted(), r);
         assert_eq!(Reduction::default().phi, PhiCoordinate::Radians);
+        // Reports name the cosine only where a 3-D fit takes it.
+        assert_eq!(r.label(), "Full3d in SqrtThetaH coordinates, cos phi_d");
+        assert_eq!(slice.label(), "Slice2d in SqrtThetaH coordinates");
         for phi in [PhiCoordinate::Radians, PhiCoordinate::Cosine] {
             assert_eq!(phi.to_string().parse::<PhiCoordinate>(), Ok(phi));
         }

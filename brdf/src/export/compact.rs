@@ -801,12 +801,7 @@ pub fn to_f32(v: Vec3) -> [f32; 3] {
 
 /// The reduction a compact fit corresponds to (for reports).
 pub fn describe(r: &Reduction) -> String {
-    match (r.dims(), r.phi) {
-        (3, PhiCoordinate::Cosine) => {
-            format!("{:?} in {:?} coordinates, cos phi_d", r.kind, r.coordinates)
-        }
-        _ => format!("{:?} in {:?} coordinates", r.kind, r.coordinates),
-    }
+    r.label()
 }
 
 #[cfg(test)]
