@@ -679,7 +679,13 @@ fn fit_channel(
     };
     // On the log scale the function fits the logarithms of the intervals.
     let scale = s.scale.of(s.mode, c);
-    let data = scale.data(&data)?;
+    let data = scale.data(&data).map_err(|e| match e {
+        BrdfError::Invalid { name, reason } => BrdfError::Invalid {
+            name,
+            reason: format!("function {channel}, {reason}"),
+        },
+        other => other,
+    })?;
     let engine = match &s.channel_progress {
         Some(ChannelProgress(cb)) => {
             let cb = cb.clone();

@@ -465,3 +465,33 @@ fn a_fit_on_the_log_scale_holds_the_same_intervals_on_the_value() {
     let edited = json.replace("\"scale\":\"log\"", "\"scale\":\"exp\"");
     assert!(serde_json::from_str::<FittedBrdf>(&edited).is_err());
 }
+
+/// Blue only near the specular direction (exactly zero elsewhere), red and
+/// green everywhere.
+struct BlueHighlight;
+
+impl Brdf for BlueHighlight {
+    fn eval(&self, wi: [f64; 3], wo: [f64; 3]) -> [f64; 3] {
+        let [theta_h, _, _] = brdf::HalfDiff::isotropic_angles(wi, wo);
+        [0.2, 0.2, if theta_h < 0.05 { 0.5 } else { 0.0 }]
+    }
+    fn name(&self) -> String {
+        "blue highlight".into()
+    }
+}
+
+#[test]
+fn a_log_scale_interval_with_no_positive_value_names_its_function_and_sample() {
+    // Most of the blue channel is exactly zero, so its visibility floor
+    // (a fraction of the median cosine-weighted value) is zero too, and a
+    // zero cell's interval is [0, 0], which no exp(p / q) reaches.
+    let s = settings(Reduction::default().with_resolution(12, 12))
+        .with_design(brdf::PerceptualBounds::default())
+        .with_value_scale(ValueScale::Log);
+    let e = fit_brdf(&BlueHighlight, &s).unwrap_err().to_string();
+    assert!(
+        e.contains("log-scale intervals") && e.contains("function b, sample"),
+        "{e}"
+    );
+    assert!(e.contains("holds no positive value"), "{e}");
+}
