@@ -627,14 +627,24 @@ fn sweep_sharing_proofs(
     result
 }
 
-fn fit_channel(
+/// Channel `c`'s interval data under `s` (the perceptual design, its
+/// half-width scaled for a chroma ratio, or plain relative intervals), the
+/// sample rows used, and what the design used.
+#[allow(clippy::type_complexity)]
+fn channel_intervals(
     samples: &Samples,
     c: usize,
     s: &BrdfFitSettings,
-    design: Option<&SharedDesign>,
-) -> Result<(RationalFunction, ChannelReport), BrdfError> {
+) -> Result<
+    (
+        IntervalData,
+        Vec<usize>,
+        Option<crate::design::ChannelBounds>,
+    ),
+    BrdfError,
+> {
     let channel = s.mode.names()[c];
-    let (data, used, bounds) = match &s.design {
+    Ok(match &s.design {
         Some(design) => {
             // The chroma ratios get the half-width whose colour difference
             // matches the luminance's at the material's typical colour.
@@ -654,7 +664,32 @@ fn fit_channel(
                 .map_err(|e| BrdfError::Fit { channel, source: e })?;
             (d, u, None)
         }
-    };
+    })
+}
+
+/// `data` on `scale` ([`ValueScale::data`]), an error naming the function.
+fn on_scale(
+    scale: ValueScale,
+    data: &IntervalData,
+    channel: char,
+) -> Result<IntervalData, BrdfError> {
+    scale.data(data).map_err(|e| match e {
+        BrdfError::Invalid { name, reason } => BrdfError::Invalid {
+            name,
+            reason: format!("function {channel}, {reason}"),
+        },
+        other => other,
+    })
+}
+
+fn fit_channel(
+    samples: &Samples,
+    c: usize,
+    s: &BrdfFitSettings,
+    design: Option<&SharedDesign>,
+) -> Result<(RationalFunction, ChannelReport), BrdfError> {
+    let channel = s.mode.names()[c];
+    let (data, used, bounds) = channel_intervals(samples, c, s)?;
     let rel_tol = s.design.map_or(s.rel_tol, |d| d.rel_tol);
     let fit_err = |e| BrdfError::Fit { channel, source: e };
     // With a lobe the functions fit data / lobe in the intervals divided by it.
@@ -679,13 +714,7 @@ fn fit_channel(
     };
     // On the log scale the function fits the logarithms of the intervals.
     let scale = s.scale.of(s.mode, c);
-    let data = scale.data(&data).map_err(|e| match e {
-        BrdfError::Invalid { name, reason } => BrdfError::Invalid {
-            name,
-            reason: format!("function {channel}, {reason}"),
-        },
-        other => other,
-    })?;
+    let data = on_scale(scale, &data, channel)?;
     let engine = match &s.channel_progress {
         Some(ChannelProgress(cb)) => {
             let cb = cb.clone();
