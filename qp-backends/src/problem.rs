@@ -389,16 +389,20 @@ pub(crate) fn matvec_col_major(a: &[f64], x: &[f64], out: &mut [f64]) {
 #[inline]
 pub(crate) fn dot(a: &[f64], b: &[f64]) -> f64 {
     // Four accumulators: vectorises and halves the rounding chain length.
+    // Exact chunks of four rather than indices, so that no access needs a
+    // bounds check.
+    let b = &b[..a.len()];
+    let (a4, b4) = (a.chunks_exact(4), b.chunks_exact(4));
+    let (a_rest, b_rest) = (a4.remainder(), b4.remainder());
     let mut acc = [0.0; 4];
-    let chunks = a.len() / 4;
-    for k in 0..chunks {
+    for (x, y) in a4.zip(b4) {
         for l in 0..4 {
-            acc[l] += a[4 * k + l] * b[4 * k + l];
+            acc[l] += x[l] * y[l];
         }
     }
     let mut s = (acc[0] + acc[1]) + (acc[2] + acc[3]);
-    for k in 4 * chunks..a.len() {
-        s += a[k] * b[k];
+    for (x, y) in a_rest.iter().zip(b_rest) {
+        s += x * y;
     }
     s
 }
@@ -406,6 +410,27 @@ pub(crate) fn dot(a: &[f64], b: &[f64]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_dot_product_sums_in_four_lanes_then_the_tail() {
+        // The order the solver's results depend on: lane l sums the
+        // entries l, l + 4, ...; then (l0 + l1) + (l2 + l3), then the tail.
+        for n in 0..14 {
+            let a: Vec<f64> = (0..n).map(|i| 1.0 / (i as f64 + 0.3)).collect();
+            let b: Vec<f64> = (0..n + 2).map(|i| (i as f64 * 0.7).sin()).collect();
+            let mut acc = [0.0; 4];
+            for k in 0..n / 4 {
+                for (l, lane) in acc.iter_mut().enumerate() {
+                    *lane += a[4 * k + l] * b[4 * k + l];
+                }
+            }
+            let mut expected = (acc[0] + acc[1]) + (acc[2] + acc[3]);
+            for k in 4 * (n / 4)..n {
+                expected += a[k] * b[k];
+            }
+            assert_eq!(dot(&a, &b).to_bits(), expected.to_bits(), "n = {n}");
+        }
+    }
 
     #[test]
     fn rejects_non_finite_and_bad_sizes() {
