@@ -137,6 +137,12 @@ impl BrdfFitSettings {
         self
     }
 
+    /// The callback of [`BrdfFitSettings::with_channel_progress`], if any
+    /// (to chain another after it).
+    pub fn channel_progress(&self) -> Option<ChannelProgressFn> {
+        self.channel_progress.as_ref().map(|p| p.0.clone())
+    }
+
     /// Shares proofs of no fit between the fits of one search
     /// ([`NoFitMemo`]): use one memo only for fits whose settings differ in
     /// their intervals (the tolerance) and coefficient budgets alone.

@@ -31,11 +31,13 @@ use std::sync::Arc;
 use std::time::Instant;
 
 mod cut;
+mod fit_beside;
 mod fit_parts;
 mod split;
 mod target;
 mod target_report;
 mod target_search;
+mod target_walk;
 pub use cut::{
     choose_evaluation_cut, render_check_choosing_cut, CutChoice, CutTried, EVALUATION_CUTS,
     LOWER_CUTS,

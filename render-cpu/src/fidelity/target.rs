@@ -561,6 +561,7 @@ pub fn fit_to_target(
         target_de,
         budget,
         start,
+        overlap: true,
     };
     let Searched {
         why,

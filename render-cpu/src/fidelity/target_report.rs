@@ -15,7 +15,10 @@ pub struct TargetAttempt {
     pub scale: brdf::ValueScale,
     /// Perceptual relative half-width.
     pub rel_tol: f64,
-    /// Seconds spent on it: the fit and its validation renders.
+    /// Seconds from the start of its fit to the end of its validation
+    /// renders. A search makes each fit but its first while the one
+    /// before it is validated, so attempts overlap and their seconds add
+    /// up to more than the search's.
     pub seconds: f64,
     /// Bytes (f32) and the worse mean CIEDE2000 of the two scenes; `None`
     /// when no fit within the coefficient budget meets these intervals.

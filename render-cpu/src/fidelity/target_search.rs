@@ -2,10 +2,13 @@
 //! tried in turn, each fit widened at most twice, measured on the
 //! validation renders and given its evaluation cut.
 
+use super::fit_beside::{ahead_settings, ChannelGate};
 use super::target_report::{TargetAttempt, TargetBudget};
+use super::target_walk::{Verdict, Walk};
 use super::{choose_evaluation_cut, RenderErrors, Validator};
 use crate::RenderError;
 use brdf::Brdf;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -33,19 +36,6 @@ pub(super) const TOLERANCES: [f64; 4] = [0.16, 0.08, 0.04, 0.02];
 /// feasible within the coefficient budget.
 pub(super) const LOOSER: [f64; 2] = [0.32, 0.64];
 
-/// The loosest tolerance tried when fits pass the byte budget.
-const LOOSEST: f64 = LOOSER[LOOSER.len() - 1];
-
-/// Tolerances after `t` tried when its fit passes the byte budget: looser
-/// by sqrt 2 each, up to [`LOOSEST`] (fewer coefficients, and bytes are
-/// what is short).
-fn looser_for_bytes(t: f64) -> Vec<f64> {
-    (1..)
-        .map(|k| t * std::f64::consts::SQRT_2.powi(k))
-        .take_while(|&u| u <= LOOSEST * (1.0 + 1e-9))
-        .collect()
-}
-
 /// Each widening of a target fit's intervals. Each function is fitted on
 /// its own, so only one that misses its tolerance is widened, and it lands
 /// at 1.41 times the tolerance rather than 2.
@@ -54,11 +44,6 @@ const WIDEN_STEP: f64 = std::f64::consts::SQRT_2;
 /// Widenings allowed, to at most twice the tolerance ([`WIDEN_STEP`]
 /// squared).
 const MAX_WIDENINGS: usize = 2;
-
-/// How many times a search bisects (geometrically) the bracket between a
-/// tolerance whose fit is within the byte budget and a tighter one past
-/// it: twice narrows a factor of 2 to 2^(1/4), about 19%.
-const MAX_REFINEMENTS: usize = 2;
 
 /// The engine of a target fit: `settings`' with the target's widening,
 /// and no function given more coefficients than the byte budget holds (its
@@ -125,6 +110,10 @@ pub(super) struct Goal<'a> {
     pub(super) target_de: f64,
     pub(super) budget: TargetBudget,
     pub(super) start: Instant,
+    /// Each fit but a search's first is made while the one before it is
+    /// validated ([`search_tolerances`]); `false` fits and validates one
+    /// at a time (the same fits and result, for the tests to compare).
+    pub(super) overlap: bool,
 }
 
 /// The elevation cut `settings` fits within, if any.
@@ -140,46 +129,64 @@ pub(super) struct Measured {
     pub(super) attempt: TargetAttempt,
 }
 
-/// The fit of `settings` at perceptual half-width `t`, measured and given
-/// its evaluation cut ([`choose_evaluation_cut`], within the byte budget
-/// when it can be; none when its functions alone pass it); `Err(name)`
-/// names the first function (in the colour mode's order) with no fit
-/// within the coefficient budget.
-pub(super) fn fit_at(
-    goal: &Goal,
-    settings: &brdf::BrdfFitSettings,
-    t: f64,
-) -> Result<Result<Measured, char>, RenderError> {
+/// One tolerance's fit before its validation renders.
+struct Unmeasured {
+    fitted: brdf::FittedBrdf,
+    widened: f64,
+    limiting: Option<char>,
+    started: Instant,
+}
+
+/// The fit of `settings` at perceptual half-width `t`; `Err` names the
+/// first function (in the colour mode's order) with no fit within the
+/// coefficient budget, with the time the fit started.
+fn fit_only(goal: &Goal, settings: &brdf::BrdfFitSettings, t: f64) -> FitOutcome {
     let started = Instant::now();
-    let (validator, table, budget) = (goal.validator, goal.table, goal.budget);
+    let table = goal.table;
     let design = settings.design().copied().unwrap_or_default();
     let s = settings.clone().with_design(brdf::PerceptualBounds {
         rel_tol: t,
         ..design
     });
-    let (fitted, widened, limiting) = match brdf::fit_brdf(table.as_ref(), &s) {
-        Ok((f, r)) => {
+    match brdf::fit_brdf(table.as_ref(), &s) {
+        Ok((fitted, r)) => {
             let scales: Vec<f64> = r.channels.iter().map(|c| c.interval_scale).collect();
-            let w = scales.iter().copied().fold(1.0, f64::max);
+            let widened = scales.iter().copied().fold(1.0, f64::max);
             // The first function widened most (the luminance between ties).
             let first_widest =
                 (0..scales.len()).max_by(|&a, &b| scales[a].total_cmp(&scales[b]).then(b.cmp(&a)));
             let limiting = first_widest
-                .filter(|_| w > 1.0)
+                .filter(|_| widened > 1.0)
                 .map(|c| settings.colour_mode().names()[c]);
-            (f, w, limiting)
+            Ok(Ok(Unmeasured {
+                fitted,
+                widened,
+                limiting,
+                started,
+            }))
         }
         Err(brdf::BrdfError::Fit {
             channel,
             source: rational_core::FitError::NoFeasibleFit { .. },
-        }) => return Ok(Err(channel)),
-        Err(e) => {
-            return Err(RenderError::Material {
-                name: table.name(),
-                source: e,
-            })
-        }
-    };
+        }) => Ok(Err((channel, started))),
+        Err(e) => Err(RenderError::Material {
+            name: table.name(),
+            source: e,
+        }),
+    }
+}
+
+/// `fit` (at half-width `t`) measured on the validation renders and given
+/// its evaluation cut ([`choose_evaluation_cut`], within the byte budget
+/// when it can be; none when its functions alone pass it).
+fn measure(
+    goal: &Goal,
+    settings: &brdf::BrdfFitSettings,
+    t: f64,
+    fit: Unmeasured,
+) -> Result<Measured, RenderError> {
+    let (validator, table, budget) = (goal.validator, goal.table, goal.budget);
+    let fitted = fit.fitted;
     let errors = validator.measure(Arc::new(crate::scene::FitInDomain::new(fitted.clone())))?;
     // A fit whose functions alone pass the byte budget passes it at every
     // cut, with or without a shell: it can never be returned, so its
@@ -203,21 +210,28 @@ pub(super) fn fit_at(
         colour: settings.colour_mode(),
         scale: settings.value_scale(),
         rel_tol: t,
-        seconds: started.elapsed().as_secs_f64(),
+        seconds: fit.started.elapsed().as_secs_f64(),
         result: Some((bytes, errors.worst_mean())),
-        widened,
-        limiting,
+        widened: fit.widened,
+        limiting: fit.limiting,
         cut,
         shell,
         over_budget: budget.passed_by(bytes),
         fitted_within: fitted_within(settings),
     };
-    Ok(Ok(Measured {
+    Ok(Measured {
         fitted,
         errors,
         attempt,
-    }))
+    })
 }
+
+/// What [`fit_only`] returns.
+type FitOutcome = Result<Result<Unmeasured, (char, Instant)>, RenderError>;
+
+/// A fit made while the one before it was validated, for the tolerance
+/// that follows unless that validation stops the search.
+type Ahead = Option<(f64, FitOutcome)>;
 
 /// Tries tolerances with `settings`' reduction, loosest first, until one
 /// reaches the target, `deadline` passes (checked between fits), a
@@ -229,11 +243,20 @@ pub(super) fn fit_at(
 /// follow until one fits within it. A fit within the byte budget and a
 /// tighter one past it bracket the tightest tolerance within it: the
 /// tolerance halfway (geometrically) between them is tried, and once more
-/// between it and the bracket's other end ([`MAX_REFINEMENTS`]). Both go
+/// between it and the bracket's other end
+/// ([`MAX_REFINEMENTS`](super::target_walk::MAX_REFINEMENTS)). Both go
 /// on past the deadline while the search has no fit within the budgets. A channel's intervals are
 /// widened by [`WIDEN_STEP`] at most [`MAX_WIDENINGS`] times (reported):
 /// widened further, a perceptual design's floors and caps stop meaning
 /// anything.
+///
+/// Each fit but the first is made while the one before it is validated,
+/// for the tolerance that follows unless that validation stops the search
+/// (it is then cancelled): the fit's last functions and the renders use
+/// the cores the other leaves idle. The fits, their order and the result
+/// are those of fitting and validating one at a time: what follows a fit
+/// depends on its error only through whether the search stops, and a fit
+/// does not depend on the validations before it.
 pub(super) fn search_tolerances(
     goal: &Goal,
     settings: &brdf::BrdfFitSettings,
@@ -252,22 +275,28 @@ pub(super) fn search_tolerances(
         best: None,
         tried: Vec::new(),
     };
-    let mut previous = f64::INFINITY;
-    let mut queue: Vec<f64> = tolerances.to_vec();
-    let (mut k, mut loosened, mut loosened_for_bytes) = (0, false, false);
-    // The last tolerance whose fit passed the byte budget, the last whose
-    // fit was within it (they bracket the tightest within it), and how many
-    // tolerances between them were tried.
-    let (mut over_at, mut within_at, mut refinements): (Option<f64>, Option<f64>, usize) =
-        (None, None, 0);
-    let past_deadline = || goal.start.elapsed().as_secs_f64() > deadline_s;
-    while k < queue.len() {
-        let t = queue[k];
-        k += 1;
-        let started = Instant::now();
-        let m = match fit_at(goal, &settings, t)? {
-            Ok(m) => m,
-            Err(function) => {
+    let mut walk = Walk::new(tolerances, deadline_s, stop_at_floor);
+    let mut ahead: Ahead = None;
+    // Where the validations made beside a fit run (none: one at a time).
+    let validation_pool = goal
+        .overlap
+        .then(|| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(rayon::current_num_threads())
+                .thread_name(|k| format!("ratfit-validation-{k}"))
+                .build()
+                .ok()
+        })
+        .flatten();
+    while let Some(t) = walk.next_tolerance() {
+        let fit = match ahead.take() {
+            // Tolerances are compared exactly: both come from the same steps.
+            Some((u, fit)) if u.to_bits() == t.to_bits() => fit?,
+            _ => fit_only(goal, &settings, t)?,
+        };
+        let fit = match fit {
+            Ok(fit) => fit,
+            Err((function, started)) => {
                 search.tried.push(TargetAttempt {
                     dims: settings.reduction().dims(),
                     colour: settings.colour_mode(),
@@ -282,77 +311,182 @@ pub(super) fn search_tolerances(
                     over_budget: false,
                     fitted_within: fitted_within(&settings),
                 });
-                if search.best.is_none() && !loosened {
-                    // Even the loosest is infeasible: loosen instead.
-                    queue = LOOSER.to_vec();
-                    k = 0;
-                    loosened = true;
-                    continue;
-                }
-                if search.best.is_none() && k < queue.len() {
+                if walk.after_no_fit(search.best.is_some()) {
                     continue;
                 }
                 break;
             }
         };
-        let over_budget = m.attempt.over_budget;
-        let worst = m.errors.worst_mean();
-        search.tried.push(m.attempt.clone());
-        if over_budget {
-            over_at = Some(t);
-            if let Some(within) = within_at {
-                // Between a fit within the budget and this tighter one past
-                // it, the tolerance halfway (geometrically); tighter ones
-                // only grow.
-                if refinements < MAX_REFINEMENTS && !past_deadline() {
-                    queue = vec![(within * t).sqrt()];
-                    k = 0;
-                    refinements += 1;
-                    continue;
-                }
-                break;
+        let over_budget = goal.budget.passed_by(fit.fitted.byte_size_f32());
+        let guess = walk.guess_after(t, over_budget, walk.past_deadline(goal));
+        let goes_on = match (guess, &validation_pool) {
+            (Some(u), Some(pool)) => {
+                let (goes_on, next_fit) = judge_beside_next(
+                    goal,
+                    &settings,
+                    (t, fit),
+                    (&mut search, &mut walk),
+                    (u, pool),
+                )?;
+                ahead = next_fit.map(|f| (u, f));
+                goes_on
             }
-            // Nothing within the byte budget yet: looser tolerances follow
-            // even past the deadline, as they do when nothing is feasible
-            // (a search cut here returns nothing for the time it spent).
-            if !loosened_for_bytes {
-                queue = looser_for_bytes(t);
-                k = 0;
-                loosened_for_bytes = true;
-            }
-            continue;
-        }
-        within_at = Some(t);
-        let reached = worst <= goal.target_de;
-        if reached || worst < search.worst() {
-            search.best = Some(m);
-        }
-        let at_floor = stop_at_floor && worst > 0.9 * previous;
-        previous = previous.min(worst);
-        // Loosened for bytes by sqrt 2 (or after a tolerance between), a
-        // fit within the budget may leave much of it unused: the tolerance
-        // halfway (geometrically) to the last one over the budget follows.
-        let bracketed = loosened_for_bytes || refinements > 0;
-        if let (true, false, Some(over)) = (bracketed, reached, over_at) {
-            if refinements < MAX_REFINEMENTS && !past_deadline() {
-                queue = vec![(over * t).sqrt()];
-                k = 0;
-                refinements += 1;
-                continue;
-            }
-        }
-        // Among the loosened tolerances the first feasible one (within the
-        // byte budget) is the best.
-        if reached || at_floor || loosened || loosened_for_bytes || past_deadline() {
+            _ => judge(goal, &settings, (t, fit), &mut search, &mut walk)?,
+        };
+        if !goes_on {
             break;
         }
     }
     Ok(search)
 }
 
+/// Validates the fit at `t` and records it in `search`: whether the
+/// search goes on after it ([`Walk::after_fit`]).
+fn judge(
+    goal: &Goal,
+    settings: &brdf::BrdfFitSettings,
+    (t, fit): (f64, Unmeasured),
+    search: &mut Search,
+    walk: &mut Walk,
+) -> Result<bool, RenderError> {
+    let m = measure(goal, settings, t, fit)?;
+    let worst = m.errors.worst_mean();
+    let over_budget = m.attempt.over_budget;
+    search.tried.push(m.attempt.clone());
+    let verdict = (!over_budget).then_some(Verdict {
+        reached: worst <= goal.target_de,
+        worst,
+    });
+    if verdict.is_some_and(|v| v.reached || worst < search.worst()) {
+        search.best = Some(m);
+    }
+    let past_deadline = walk.past_deadline(goal);
+    Ok(walk.after_fit(t, over_budget, verdict, past_deadline))
+}
+
+/// [`judge`] of the fit at `t`, with the fit at `u` (the tolerance that
+/// follows unless this validation stops the search) made beside it; the
+/// fit at `u` is returned when `u` follows, and cancelled otherwise.
+///
+/// The fit runs on the calling thread, the validation beside it in `pool`
+/// once the fit's functions have each started: the system then gives the
+/// validation the cores the fit leaves idle as its functions end (in the
+/// fit's own pool, the validation's work would hold up the parallel parts
+/// of the last function's fit).
+fn judge_beside_next(
+    goal: &Goal,
+    settings: &brdf::BrdfFitSettings,
+    (t, fit): (f64, Unmeasured),
+    (search, walk): (&mut Search, &mut Walk),
+    (u, pool): (f64, &rayon::ThreadPool),
+) -> Result<(bool, Option<FitOutcome>), RenderError> {
+    let stop = Arc::new(AtomicBool::new(false));
+    let gate = Arc::new(ChannelGate::new(settings.colour_mode().names().len()));
+    let next_settings = ahead_settings(settings, &stop, &gate);
+    let (goes_on, next_fit) = std::thread::scope(|scope| {
+        let validation = scope.spawn(|| {
+            gate.wait();
+            let goes_on = pool.install(|| judge(goal, settings, (t, fit), search, walk));
+            // The fit made meanwhile is of use only when `u` follows.
+            let follows = walk.upcoming().map(f64::to_bits) == Some(u.to_bits());
+            if !(goes_on.as_ref().is_ok_and(|&go| go) && follows) {
+                stop.store(true, Ordering::Relaxed);
+            }
+            goes_on
+        });
+        let next_fit = {
+            let _done = gate.opened_when_dropped();
+            fit_only(goal, &next_settings, u)
+        };
+        let goes_on = validation
+            .join()
+            .unwrap_or_else(|panic| std::panic::resume_unwind(panic));
+        (goes_on, next_fit)
+    });
+    let used = !stop.load(Ordering::Relaxed);
+    Ok((goes_on?, used.then_some(next_fit)))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn fits_made_beside_validations_are_the_fits_made_one_at_a_time() {
+        let table: Arc<dyn Brdf> = Arc::new(brdf::CookTorranceGgx {
+            kd: [0.3, 0.4, 0.1],
+            f0: [0.05; 3],
+            alpha: 0.2,
+        });
+        let validation = super::super::ValidationSettings {
+            size: 24,
+            lights_spp: 1,
+            sky_spp: 16,
+            seed: 3,
+        };
+        let validator = Validator::new(table.clone(), validation).unwrap();
+        let engine = rational_core::FitSettings::default()
+            .with_coeff_range(4, 120)
+            .unwrap();
+        let base = super::super::target_settings(engine);
+        let reduction = base
+            .reduction()
+            .with_resolution(8, 8)
+            .with_phi_resolution(8);
+        let settings = base.with_reduction(reduction);
+        // A byte budget that the tighter tolerances pass: the search
+        // brackets it, each fit made beside the validation of the one
+        // before it. With a target no fit reaches every fit made beside is
+        // used; with one the second fit reaches, the one made beside its
+        // validation is cancelled and dropped.
+        let budget = TargetBudget {
+            seconds: 600.0,
+            bytes: Some(150),
+        };
+        for target_de in [1e-3, 0.9] {
+            let run = |overlap| {
+                let goal = Goal {
+                    validator: &validator,
+                    table: &table,
+                    target_de,
+                    budget,
+                    start: Instant::now(),
+                    overlap,
+                };
+                search_tolerances(&goal, &settings, &TOLERANCES, 600.0, false).unwrap()
+            };
+            let (beside, alone) = (run(true), run(false));
+            // Everything but the seconds.
+            let attempts = |s: &Search| -> Vec<String> {
+                s.tried
+                    .iter()
+                    .map(|a| {
+                        format!(
+                            "{} {:?} {} {:?} {:?} {} {}",
+                            a.rel_tol,
+                            a.result,
+                            a.widened,
+                            a.limiting,
+                            a.cut,
+                            a.shell,
+                            a.over_budget
+                        )
+                    })
+                    .collect()
+            };
+            assert_eq!(attempts(&beside), attempts(&alone));
+            let fitted = alone.tried.iter().filter(|a| a.result.is_some()).count();
+            let over = alone.tried.iter().filter(|a| a.over_budget).count();
+            let reached = alone.worst() <= target_de;
+            let expected = if reached { (2, 0) } else { (5, 2) };
+            assert_eq!((fitted, over), expected, "{:?}", attempts(&alone));
+            let best = |s: &Search| {
+                let b = s.best.as_ref().expect("a fit within the budget");
+                (format!("{:?}", b.fitted), b.errors.worst_mean().to_bits())
+            };
+            assert_eq!(best(&beside), best(&alone));
+        }
+    }
 
     #[test]
     fn rgb_channels_share_the_byte_budget_and_the_luminance_has_it_whole() {

@@ -1,0 +1,178 @@
+//! The order in which a target search tries tolerances
+//! ([`super::target_search::search_tolerances`]): loosest first, looser
+//! ones when none is feasible or the byte budget is passed, and
+//! geometric bisection of the bracket around the budget.
+
+use super::target_search::{Goal, LOOSER};
+
+/// The loosest tolerance tried when fits pass the byte budget.
+const LOOSEST: f64 = LOOSER[LOOSER.len() - 1];
+
+/// Tolerances after `t` tried when its fit passes the byte budget: looser
+/// by sqrt 2 each, up to [`LOOSEST`] (fewer coefficients, and bytes are
+/// what is short).
+fn looser_for_bytes(t: f64) -> Vec<f64> {
+    (1..)
+        .map(|k| t * std::f64::consts::SQRT_2.powi(k))
+        .take_while(|&u| u <= LOOSEST * (1.0 + 1e-9))
+        .collect()
+}
+
+/// How many times a search bisects (geometrically) the bracket between a
+/// tolerance whose fit is within the byte budget and a tighter one past
+/// it: twice narrows a factor of 2 to 2^(1/4), about 19%.
+pub(super) const MAX_REFINEMENTS: usize = 2;
+
+/// The order of a search's tolerances: the queue,
+/// and what the fits so far decided about what follows.
+#[derive(Clone)]
+pub(super) struct Walk {
+    queue: Vec<f64>,
+    next: usize,
+    loosened: bool,
+    loosened_for_bytes: bool,
+    /// The last tolerance whose fit passed the byte budget and the last
+    /// whose fit was within it (they bracket the tightest within it), and
+    /// how many tolerances between them were tried.
+    over_at: Option<f64>,
+    within_at: Option<f64>,
+    refinements: usize,
+    /// The lowest worse-scene error so far.
+    previous: f64,
+    /// Seconds from the target search's start after which no tolerance
+    /// between two tried ones follows.
+    deadline_s: f64,
+    /// Whether a tighter tolerance that improves the error by less than
+    /// 10% ends the search (the reduction's own error dominates).
+    stop_at_floor: bool,
+}
+
+/// What a validation said of a fit within the byte budget, for [`Walk`]:
+/// whether it reached the target, and its worse-scene error.
+#[derive(Clone, Copy)]
+pub(super) struct Verdict {
+    pub(super) reached: bool,
+    pub(super) worst: f64,
+}
+
+impl Walk {
+    pub(super) fn new(tolerances: &[f64], deadline_s: f64, stop_at_floor: bool) -> Self {
+        Self {
+            queue: tolerances.to_vec(),
+            next: 0,
+            loosened: false,
+            loosened_for_bytes: false,
+            over_at: None,
+            within_at: None,
+            refinements: 0,
+            previous: f64::INFINITY,
+            deadline_s,
+            stop_at_floor,
+        }
+    }
+
+    pub(super) fn past_deadline(&self, goal: &Goal) -> bool {
+        goal.start.elapsed().as_secs_f64() > self.deadline_s
+    }
+
+    /// The tolerance [`Walk::next_tolerance`] will give, if any.
+    pub(super) fn upcoming(&self) -> Option<f64> {
+        self.queue.get(self.next).copied()
+    }
+
+    pub(super) fn next_tolerance(&mut self) -> Option<f64> {
+        let t = *self.queue.get(self.next)?;
+        self.next += 1;
+        Some(t)
+    }
+
+    fn restart_with(&mut self, queue: Vec<f64>) {
+        self.queue = queue;
+        self.next = 0;
+    }
+
+    /// After no fit within the coefficient budget: whether the search goes
+    /// on (`have_best`: a fit within the budgets was found before).
+    pub(super) fn after_no_fit(&mut self, have_best: bool) -> bool {
+        if !have_best && !self.loosened {
+            // Even the loosest is infeasible: loosen instead.
+            self.restart_with(LOOSER.to_vec());
+            self.loosened = true;
+            return true;
+        }
+        !have_best && self.next < self.queue.len()
+    }
+
+    /// After the fit at `t`: whether the search goes on. `verdict` is
+    /// `None` for a fit over the byte budget (whose error decides nothing),
+    /// and for the guess made before a validation that the fit neither
+    /// reaches the target nor the floor.
+    pub(super) fn after_fit(
+        &mut self,
+        t: f64,
+        over_budget: bool,
+        verdict: Option<Verdict>,
+        past_deadline: bool,
+    ) -> bool {
+        if over_budget {
+            self.over_at = Some(t);
+            if let Some(within) = self.within_at {
+                // Between a fit within the budget and this tighter one past
+                // it, the tolerance halfway (geometrically); tighter ones
+                // only grow.
+                if self.refinements < MAX_REFINEMENTS && !past_deadline {
+                    self.restart_with(vec![(within * t).sqrt()]);
+                    self.refinements += 1;
+                    return true;
+                }
+                return false;
+            }
+            // Nothing within the byte budget yet: looser tolerances follow
+            // even past the deadline, as they do when nothing is feasible
+            // (a search cut here returns nothing for the time it spent).
+            if !self.loosened_for_bytes {
+                self.restart_with(looser_for_bytes(t));
+                self.loosened_for_bytes = true;
+            }
+            return true;
+        }
+        self.within_at = Some(t);
+        let (reached, at_floor) = verdict.map_or((false, false), |v| {
+            (
+                v.reached,
+                self.stop_at_floor && v.worst > 0.9 * self.previous,
+            )
+        });
+        if let Some(v) = verdict {
+            self.previous = self.previous.min(v.worst);
+        }
+        // Loosened for bytes by sqrt 2 (or after a tolerance between), a
+        // fit within the budget may leave much of it unused: the tolerance
+        // halfway (geometrically) to the last one over the budget follows.
+        let bracketed = self.loosened_for_bytes || self.refinements > 0;
+        if let (true, false, Some(over)) = (bracketed, reached, self.over_at) {
+            if self.refinements < MAX_REFINEMENTS && !past_deadline {
+                self.restart_with(vec![(over * t).sqrt()]);
+                self.refinements += 1;
+                return true;
+            }
+        }
+        // Among the loosened tolerances the first feasible one (within the
+        // byte budget) is the best.
+        !(reached || at_floor || self.loosened || self.loosened_for_bytes || past_deadline)
+    }
+
+    /// The tolerance that follows the fit at `t` if its validation neither
+    /// reaches the target nor the floor, without deciding it.
+    pub(super) fn guess_after(
+        &self,
+        t: f64,
+        over_budget: bool,
+        past_deadline: bool,
+    ) -> Option<f64> {
+        let mut walk = self.clone();
+        walk.after_fit(t, over_budget, None, past_deadline)
+            .then(|| walk.next_tolerance())
+            .flatten()
+    }
+}
