@@ -60,6 +60,17 @@ impl ValueScale {
         *self == ValueScale::Linear
     }
 
+    /// What a description of a fit adds for its scale: `" log"` or
+    /// `" log-light"`, nothing for linear (the scale a fit has unless it
+    /// says otherwise).
+    pub fn suffix(self) -> String {
+        if self.is_linear() {
+            String::new()
+        } else {
+            format!(" {self}")
+        }
+    }
+
     /// The scale of function `c` of a fit in colour `mode`: linear or
     /// log.
     pub fn of(self, mode: ColourMode, c: usize) -> ValueScale {
@@ -228,6 +239,13 @@ mod tests {
         );
         let e = "exp".parse::<ValueScale>().unwrap_err().to_string();
         assert!(e.contains("exp") && e.contains("log-light"), "{e}");
+    }
+
+    #[test]
+    fn a_description_names_every_scale_but_linear() {
+        assert_eq!(ValueScale::Linear.suffix(), "");
+        assert_eq!(ValueScale::Log.suffix(), " log");
+        assert_eq!(ValueScale::LogLight.suffix(), " log-light");
     }
 
     #[test]

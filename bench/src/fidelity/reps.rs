@@ -190,11 +190,7 @@ fn fit_target(
         "{}-D {}{} +-{}%{}{}{}; {} on its own validation renders ({:.3}); {} fits tried",
         report.dims,
         report.colour,
-        if fitted.scale.is_linear() {
-            String::new()
-        } else {
-            format!(" {}", fitted.scale)
-        },
+        fitted.scale.suffix(),
         brdf::scale_text(report.rel_tol * 100.0),
         if widened > 1.0 {
             format!(" widened x{}", brdf::scale_text(widened))

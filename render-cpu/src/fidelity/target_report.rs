@@ -56,7 +56,7 @@ impl std::fmt::Display for TargetAttempt {
                 "tried {}-D {}{}{} +-{}%{}: {bytes} bytes{}, worse mean CIEDE2000 {worst:.3}{} ({:.1} s)",
                 self.dims,
                 self.colour,
-                scale_name(self.scale),
+                self.scale.suffix(),
                 self.fitted_within
                     .map_or(String::new(), |c| format!(" within {c} degrees")),
                 brdf::scale_text(self.rel_tol * 100.0),
@@ -86,7 +86,7 @@ impl std::fmt::Display for TargetAttempt {
                 "tried {}-D {}{}{} +-{}%: no fit within the coefficient budget{} ({:.1} s)",
                 self.dims,
                 self.colour,
-                scale_name(self.scale),
+                self.scale.suffix(),
                 self.fitted_within
                     .map_or(String::new(), |c| format!(" within {c} degrees")),
                 brdf::scale_text(self.rel_tol * 100.0),
@@ -94,15 +94,6 @@ impl std::fmt::Display for TargetAttempt {
                 self.seconds
             ),
         }
-    }
-}
-
-/// " log" or " log-light" after a colour mode; nothing for linear.
-pub(super) fn scale_name(scale: brdf::ValueScale) -> String {
-    if scale.is_linear() {
-        String::new()
-    } else {
-        format!(" {scale}")
     }
 }
 
@@ -235,7 +226,7 @@ impl std::fmt::Display for TargetReport {
             },
             self.dims,
             self.colour,
-            scale_name(self.scale),
+            self.scale.suffix(),
             brdf::scale_text(self.rel_tol * 100.0),
             self.bytes,
             self.max_bytes
