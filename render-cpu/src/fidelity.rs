@@ -45,7 +45,8 @@ pub use cut::{
 pub use split::{colour_split, ColourSplit};
 pub use target::{
     fit_to_target, on_target_grid, target_settings, TargetChoices, TargetColour, TargetReduction,
-    TargetScale, TARGET_GRID_3D, TARGET_MAX_COEFFS, TARGET_PHI, TARGET_SLICE, TARGET_TIME_BUDGET_S,
+    TargetScale, TARGET_GRID_3D, TARGET_MAX_COEFFS, TARGET_PHI, TARGET_SEARCH_REVISION,
+    TARGET_SLICE, TARGET_TIME_BUDGET_S,
 };
 pub use target_report::{GridFloor, SliceFloor, TargetAttempt, TargetBudget, TargetReport};
 

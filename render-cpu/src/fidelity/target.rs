@@ -145,6 +145,12 @@ pub const TARGET_GRID_3D: [usize; 3] = [16, 16, 16];
 /// twice the budget of a plain fit, since the tolerance is the search's.
 pub const TARGET_MAX_COEFFS: usize = 120;
 
+/// The revision of [`fit_to_target`]'s search, to be raised whenever the
+/// fits it returns change: a scene's cached target fit is keyed by it, so
+/// that a fit made by another search (or cached before the key named the
+/// search) is fitted again rather than read back.
+pub const TARGET_SEARCH_REVISION: u32 = 1;
+
 /// Seconds a target fit may spend on fits and renders by default
 /// (`ratfit fit --time-budget`, a scene's `target_de`, the Python package's
 /// `time_budget`), checked between fits.

@@ -359,6 +359,7 @@ fn key_additions(
         // The search may end in RGB on the slice: a fit chosen by the
         // luminance-chroma searches alone is not read back.
         text += " colour=auto";
+        text += &format!(" search={}", crate::fidelity::TARGET_SEARCH_REVISION);
     }
     text
 }
@@ -539,5 +540,19 @@ fn precision_note(fit: &FitInDomain) -> String {
             fit.f32_error(),
             crate::scene::F32_TOLERANCE
         )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::key_additions;
+
+    #[test]
+    fn a_target_fit_is_keyed_by_its_search_and_plain_fits_keep_their_keys() {
+        assert_eq!(key_additions(false, None, None, false), "");
+        let target = key_additions(false, None, Some(1024), true);
+        let revision = format!(" search={}", crate::fidelity::TARGET_SEARCH_REVISION);
+        assert!(target.ends_with(&revision), "{target}");
+        assert!(target.contains(" max_bytes=1024"), "{target}");
     }
 }
