@@ -85,7 +85,8 @@ pub struct FitArgs {
     /// perceptual fit (whole hemisphere) whose validation renders (a sphere
     /// under three directional lights and under a sky) reach this mean
     /// CIEDE2000 against the table; the 2-D slice and 3-D (grid from
-    /// `--resolution`, else 16^3) unless `--dims` fixes one, the slice
+    /// `--resolution`, else 16^3, or 24 x 16 x 8 where the table on 16^3
+    /// renders above 3 times the target) unless `--dims` fixes one, the slice
     /// first only when the table seen through it reaches the target;
     /// luminance-chroma, and RGB on the first reduction too when the
     /// chroma ratios limit it, unless `--colour` fixes one. MERL and RGL
@@ -430,6 +431,10 @@ fn run_fit_target(
         scale: match args.values {
             None => render_cpu::fidelity::TargetScale::Auto,
             Some(_) => render_cpu::fidelity::TargetScale::Fixed,
+        },
+        grid: match args.resolution {
+            None => render_cpu::fidelity::TargetGrid::Auto,
+            Some(_) => render_cpu::fidelity::TargetGrid::Fixed,
         },
     };
     let fitted = render_cpu::fidelity::fit_to_target(

@@ -930,7 +930,10 @@ fn a_target_fit_samples_the_shared_3d_grid_and_reports_what_it_reached() {
     let merl = blinn_phong_merl(&dir);
     let fit = dir.join("fit.json");
     // A target no fit reaches within a one-second budget: one tolerance is
-    // tried, on the grid `--target-de` uses when `--resolution` is not given.
+    // tried, on the grid `--target-de` chooses when `--resolution` is not
+    // given: the default grid is measured first, and at a target of 0.001
+    // the table on it renders far above the target, so the fits sample the
+    // finer `theta_h` grid.
     let out = ratfit()
         .arg("fit")
         .arg(&merl)
@@ -950,11 +953,20 @@ fn a_target_fit_samples_the_shared_3d_grid_and_reports_what_it_reached() {
         serde_json::from_str(&std::fs::read_to_string(&fit).unwrap()).unwrap();
     let r = &json["brdf"]["reduction"];
     let bins = ["n_theta_h", "n_theta_d", "n_phi_d"].map(|k| r[k].as_u64().unwrap() as usize);
-    assert_eq!(bins, render_cpu::fidelity::TARGET_GRID_3D, "{r}");
+    let fine = render_cpu::fidelity::TARGET_FINE_GRID_3D;
+    assert_eq!(bins, fine, "{r}");
     assert_eq!(json["target"]["reached"], false);
+    let choice = &json["target"]["grid_choice"];
     assert_eq!(
-        json["target"]["grid_floor"]["bins"],
+        choice["base"]["bins"],
         serde_json::json!(render_cpu::fidelity::TARGET_GRID_3D)
     );
+    assert_eq!(choice["fine"], serde_json::json!(fine));
+    assert!(choice["base"]["worst_mean_de"].as_f64().unwrap() > 0.003);
+    assert_eq!(
+        json["target"]["grid_floor"]["bins"],
+        serde_json::json!(fine)
+    );
+    assert!(stdout.contains("finer theta_h"), "{stdout}");
     std::fs::remove_dir_all(&dir).ok();
 }

@@ -11,8 +11,8 @@ use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict, PyTuple};
 use render_cpu::fidelity::{
-    fit_to_target, TargetBudget, TargetChoices, TargetColour, TargetReduction, TargetScale,
-    ValidationSettings,
+    fit_to_target, TargetBudget, TargetChoices, TargetColour, TargetGrid, TargetReduction,
+    TargetScale, ValidationSettings,
 };
 use std::path::Path;
 use std::sync::Arc;
@@ -163,10 +163,15 @@ pub fn fit_brdf(
                 None => TargetScale::Auto,
                 Some(_) => TargetScale::Fixed,
             };
+            let grid = match o.resolution {
+                None => TargetGrid::Auto,
+                Some(_) => TargetGrid::Fixed,
+            };
             let choices = TargetChoices {
                 reduction: mode,
                 colour,
                 scale,
+                grid,
             };
             let (fitted, report) = fit_to_target(
                 table.clone(),

@@ -323,7 +323,8 @@ impl BrdfOptions {
 
     /// The reduction of a fit at fixed intervals, or the base reduction of
     /// `target_de` (the whole hemisphere; 16^3 in 3-D, 90^2 in 2-D unless
-    /// `resolution` says).
+    /// `resolution` says; without it `target_de` may move the 3-D fits to
+    /// 24 x 16 x 8, `render_cpu::fidelity::TargetGrid::Auto`).
     pub fn reduction(&self) -> PyResult<Reduction> {
         let kind = match (self.dims.unwrap_or(2), self.spread) {
             (2, false) => ReductionKind::Slice2d,

@@ -35,6 +35,7 @@ mod fit_beside;
 mod fit_parts;
 mod split;
 mod target;
+mod target_grid;
 mod target_report;
 mod target_search;
 mod target_walk;
@@ -48,6 +49,7 @@ pub use target::{
     TargetScale, TARGET_GRID_3D, TARGET_MAX_COEFFS, TARGET_PHI, TARGET_SEARCH_REVISION,
     TARGET_SLICE, TARGET_TIME_BUDGET_S,
 };
+pub use target_grid::{GridChoice, TargetGrid, FINE_GRID_FLOOR_FACTOR, TARGET_FINE_GRID_3D};
 pub use target_report::{GridFloor, SliceFloor, TargetAttempt, TargetBudget, TargetReport};
 
 /// The two validation scenes.

@@ -196,10 +196,12 @@ fn target_fit(
         sky_spp: 4,
         seed: 1,
     };
+    // The grid is the test's own.
     let choices = render_cpu::fidelity::TargetChoices {
         reduction: choices.0,
         colour: colour.1,
         scale: choices.1,
+        grid: render_cpu::fidelity::TargetGrid::Fixed,
     };
     fit_to_target(
         material,

@@ -161,7 +161,8 @@ pub(super) fn rational_reps(table: &Arc<dyn Brdf>, plan: &Plan) -> Vec<Attempt> 
 /// The fit `ratfit fit FILE --target-de D [--max-bytes B]` returns (its
 /// settings: luminance-chroma, perceptual intervals over the whole
 /// hemisphere, the slice (also in RGB when the chroma ratios limit it)
-/// and the 16^3 grid in the order of `fit_to_target`, chosen on the
+/// and the 16^3 grid (24 x 16 x 8 where the table on 16^3 renders above
+/// 3 times the target) in the order of `fit_to_target`, chosen on the
 /// default validation renders, 96 x 96 with 256 sky samples), described by
 /// its report.
 fn fit_target(
@@ -187,10 +188,14 @@ fn fit_target(
     )?;
     let widened = report.widened;
     let note = format!(
-        "{}-D {}{} +-{}%{}{}{}; {} on its own validation renders ({:.3}); {} fits tried",
+        "{}-D {}{}{} +-{}%{}{}{}; {} on its own validation renders ({:.3}); {} fits tried",
         report.dims,
         report.colour,
         fitted.scale.suffix(),
+        match (report.dims, report.grid_choice.and_then(|c| c.fine)) {
+            (3, Some([h, d, p])) => format!(" on {h} x {d} x {p}"),
+            _ => String::new(),
+        },
         brdf::scale_text(report.rel_tol * 100.0),
         if widened > 1.0 {
             format!(" widened x{}", brdf::scale_text(widened))

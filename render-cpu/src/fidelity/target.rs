@@ -1,7 +1,8 @@
 //! [`fit_to_target`]: the smallest perceptual fit whose validation renders
 //! reach a mean CIEDE2000.
 
-use super::target_report::{GridFloor, SliceFloor, TargetAttempt, TargetBudget, TargetReport};
+use super::target_grid::{choose_grid, grid_floor, GridChoice, TargetGrid};
+use super::target_report::{SliceFloor, TargetAttempt, TargetBudget, TargetReport};
 use super::target_search::{
     search_tolerances, split_budget_search, split_cap, Best, Goal, Measured, Search, LOOSER,
     TOLERANCES,
@@ -69,6 +70,8 @@ pub struct TargetChoices {
     pub colour: TargetColour,
     /// The scales of the functions.
     pub scale: TargetScale,
+    /// The 3-D grid.
+    pub grid: TargetGrid,
 }
 
 impl Default for TargetChoices {
@@ -78,6 +81,7 @@ impl Default for TargetChoices {
             reduction: TargetReduction::Auto,
             colour: TargetColour::Auto,
             scale: TargetScale::Auto,
+            grid: TargetGrid::Auto,
         }
     }
 }
@@ -137,7 +141,10 @@ fn other_colour_may_help(mode: brdf::ColourMode, tried: &[TargetAttempt]) -> boo
 /// samples unless its caller names one. A finer grid renders closer as a
 /// table, but its fits need more coefficients at the same intervals and are
 /// widened sooner: on the RGL files a 16^3 grid reaches lower errors in
-/// fewer bytes than 24^3 (docs/results/fidelity-2026-12-04-target-grid.md).
+/// fewer bytes than 24^3 (docs/results/fidelity-2026-12-04-target-grid.md),
+/// and than 16 x 16 x 8 or 24 x 16 x 8 where the table on it renders
+/// within 3 times the target ([`super::TargetGrid::Auto`] moves to the
+/// latter beyond; docs/results/fidelity-2026-12-07-grid-bins.md).
 pub const TARGET_GRID_3D: [usize; 3] = [16, 16, 16];
 
 /// Largest coefficient budget per function of a target fit by default
@@ -149,7 +156,7 @@ pub const TARGET_MAX_COEFFS: usize = 120;
 /// fits it returns change: a scene's cached target fit is keyed by it, so
 /// that a fit made by another search (or cached before the key named the
 /// search) is fitted again rather than read back.
-pub const TARGET_SEARCH_REVISION: u32 = 1;
+pub const TARGET_SEARCH_REVISION: u32 = 2;
 
 /// Seconds a target fit may spend on fits and renders by default
 /// (`ratfit fit --time-budget`, a scene's `target_de`, the Python package's
@@ -224,6 +231,7 @@ struct Searched {
     best: Best,
     tried: Vec<TargetAttempt>,
     slice_floor: Option<SliceFloor>,
+    grid_choice: Option<GridChoice>,
 }
 
 /// The worse-scene error of the table seen through the 2-D slice
@@ -256,9 +264,10 @@ fn slice_floor(goal: &Goal) -> Result<SliceFloor, RenderError> {
 /// searched first only when the table seen through it ([`SliceFloor`])
 /// reaches the target; otherwise after the 3-D searches, and only when
 /// their best fit renders above that floor (below it, a slice fit would
-/// have to render under what the slice itself loses to do better). Returns why the fit was chosen, the fit with the lowest
-/// worse-scene error (the earlier search between equal errors), and every
-/// attempt.
+/// have to render under what the slice itself loses to do better). Every
+/// 3-D search samples the grid [`choose_grid`] chooses. Returns why the
+/// fit was chosen, the fit with the lowest worse-scene error (the earlier
+/// search between equal errors), and every attempt.
 fn run_searches(
     goal: &Goal,
     base: &brdf::BrdfFitSettings,
@@ -268,7 +277,12 @@ fn run_searches(
         reduction,
         colour,
         scale,
+        grid,
     } = choices;
+    // The slice keeps the caller's settings; the 3-D searches take the grid.
+    let slice_base = base;
+    let (base, grid_choice) = choose_grid(goal, base, grid)?;
+    let base = &base;
     let budget_s = goal.budget.seconds;
     let dims = base.reduction().dims();
     let mut searches: Vec<(String, Search)> = Vec::new();
@@ -289,11 +303,12 @@ fn run_searches(
     let mut floor = None;
     if reduction == TargetReduction::Auto {
         let r = on_target_grid(
-            base.reduction()
+            slice_base
+                .reduction()
                 .with_kind(brdf::ReductionKind::Slice2d)
                 .whole_hemisphere(),
         );
-        let settings = base.clone().with_reduction(r);
+        let settings = slice_base.clone().with_reduction(r);
         let f = slice_floor(goal)?;
         if f.worst_mean_de <= goal.target_de {
             let s = reduction_search(goal, &settings, SLICE_SHARE * budget_s)?;
@@ -369,7 +384,7 @@ fn run_searches(
             s,
         ));
     }
-    Ok(conclude(searches, floor))
+    Ok(conclude(searches, floor, grid_choice))
 }
 
 /// The search of `base`'s own reduction over [`TOLERANCES`], on the log
@@ -414,7 +429,11 @@ fn other_colour_search(
 
 /// Every attempt of `searches`, and the best fit of the one with the
 /// lowest worse-scene error, with why it was chosen.
-fn conclude(mut searches: Vec<(String, Search)>, slice_floor: Option<SliceFloor>) -> Searched {
+fn conclude(
+    mut searches: Vec<(String, Search)>,
+    slice_floor: Option<SliceFloor>,
+    grid_choice: Option<GridChoice>,
+) -> Searched {
     let tried = searches
         .iter()
         .flat_map(|(_, s)| s.tried.iter().cloned())
@@ -431,6 +450,7 @@ fn conclude(mut searches: Vec<(String, Search)>, slice_floor: Option<SliceFloor>
         best,
         tried,
         slice_floor,
+        grid_choice,
     }
 }
 
@@ -527,7 +547,7 @@ fn why_chosen(searches: &[(String, Search)], k: usize) -> String {
 /// gives the engine, grid and design (its relative half-width is
 /// replaced). When a 3-D fit does not reach the target, the report also
 /// gives what the table itself renders at on that fit's grid
-/// ([`GridFloor`]).
+/// ([`super::GridFloor`]).
 ///
 /// # Errors
 /// A non-positive target or time budget, a byte budget under 8 bytes, no
@@ -574,6 +594,7 @@ pub fn fit_to_target(
         best,
         tried,
         slice_floor,
+        grid_choice,
     } = run_searches(&goal, base, choices)?;
     let Some(Measured {
         fitted,
@@ -609,11 +630,11 @@ pub fn fit_to_target(
     let grid_floor = if !reached && fitted.reduction.kind == brdf::ReductionKind::Full3d {
         let r = &fitted.reduction;
         let bins = [r.n_theta_h, r.n_theta_d, r.n_phi_d];
-        let on_grid = brdf::DownsampledTable::new(table.as_ref(), bins);
-        Some(GridFloor {
-            bins,
-            worst_mean_de: validator.measure(Arc::new(on_grid))?.worst_mean(),
-        })
+        // The grid choice measured the base grid already.
+        match grid_choice.map(|c| c.base).filter(|f| f.bins == bins) {
+            Some(floor) => Some(floor),
+            None => Some(grid_floor(&goal, bins)?),
+        }
     } else {
         None
     };
@@ -627,6 +648,7 @@ pub fn fit_to_target(
         target_de,
         reached,
         grid_floor,
+        grid_choice,
         slice_floor,
         colour_split,
         dims: fitted.reduction.dims(),

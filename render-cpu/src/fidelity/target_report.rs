@@ -199,6 +199,11 @@ pub struct TargetReport {
     /// When the target is not reached by a 3-D fit: what the table itself
     /// renders at on the grid that fit samples (see [`GridFloor`]).
     pub grid_floor: Option<GridFloor>,
+    /// With [`super::TargetGrid::Auto`] and a 3-D base grid: what the table
+    /// renders at on that grid, and the grid the 3-D fits sampled instead
+    /// when that is far above the target.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub grid_choice: Option<super::GridChoice>,
     /// With the reduction chosen by the search: what the table seen through
     /// the 2-D slice renders at, and whether the slice was searched (see
     /// [`SliceFloor`]).
@@ -264,6 +269,9 @@ impl std::fmt::Display for TargetReport {
                 self.scenes[k].p99_de,
                 self.noise[k].mean_de
             )?;
+        }
+        if let Some(choice) = self.grid_choice.filter(|c| c.fine.is_some()) {
+            writeln!(f, "  {}", choice.describe(self.target_de))?;
         }
         if let Some(g) = self.grid_floor {
             let [h, d, p] = g.bins;
