@@ -35,6 +35,7 @@ mod fit_beside;
 mod fit_parts;
 mod split;
 mod target;
+mod target_choices;
 mod target_grid;
 mod target_report;
 mod target_search;
@@ -44,10 +45,11 @@ pub use cut::{
     LOWER_CUTS,
 };
 pub use split::{colour_split, ColourSplit};
-pub use target::{
-    fit_to_target, on_target_grid, target_settings, TargetChoices, TargetColour, TargetReduction,
-    TargetScale, TARGET_GRID_3D, TARGET_MAX_COEFFS, TARGET_PHI, TARGET_SEARCH_REVISION,
-    TARGET_SLICE, TARGET_TIME_BUDGET_S,
+pub use target::fit_to_target;
+pub use target_choices::{
+    on_target_grid, target_settings, TargetChoices, TargetColour, TargetReduction, TargetScale,
+    TARGET_GRID_3D, TARGET_MAX_COEFFS, TARGET_PHI, TARGET_SEARCH_REVISION, TARGET_SLICE,
+    TARGET_TIME_BUDGET_S,
 };
 pub use target_grid::{GridChoice, TargetGrid, FINE_GRID_FLOOR_FACTOR, TARGET_FINE_GRID_3D};
 pub use target_report::{GridFloor, SliceFloor, TargetAttempt, TargetBudget, TargetReport};

@@ -1,7 +1,10 @@
 //! [`fit_to_target`]: the smallest perceptual fit whose validation renders
 //! reach a mean CIEDE2000.
 
-use super::target_grid::{choose_grid, grid_floor, GridChoice, TargetGrid};
+use super::target_choices::{
+    on_target_grid, TargetChoices, TargetColour, TargetReduction, TargetScale,
+};
+use super::target_grid::{choose_grid, grid_floor, GridChoice};
 use super::target_report::{SliceFloor, TargetAttempt, TargetBudget, TargetReport};
 use super::target_search::{
     search_tolerances, split_budget_search, split_cap, Best, Goal, Measured, Search, LOOSER,
@@ -10,81 +13,8 @@ use super::target_search::{
 use super::{ValidationSettings, Validator};
 use crate::RenderError;
 use brdf::Brdf;
-use serde::Serialize;
 use std::sync::Arc;
 use std::time::Instant;
-/// Which reductions [`fit_to_target`] may use.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "snake_case")]
-#[non_exhaustive]
-pub enum TargetReduction {
-    /// The 2-D `phi_d = pi/2` slice (fewer bytes, fast fits) and the 3-D
-    /// grid: the slice first when the table seen through it reaches the
-    /// target ([`super::SliceFloor`]), the 3-D grid when the slice's fits
-    /// stop improving above it; otherwise the 3-D grid first, and the
-    /// slice only when its fits render above that floor.
-    Auto,
-    /// The base settings' reduction only.
-    Fixed,
-}
-
-/// Which colour modes [`fit_to_target`] may use.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "snake_case")]
-#[non_exhaustive]
-pub enum TargetColour {
-    /// The base settings' mode; then, while the target is unreached and
-    /// the first reduction (the slice with [`TargetReduction::Auto`], when
-    /// it was searched) holds the best fit, the other mode on that reduction: RGB after
-    /// luminance-chroma when a chroma ratio, never the luminance, limited
-    /// its fits (RGB channels need no ratio, whose intervals a coloured
-    /// highlight widens most), luminance-chroma after RGB always.
-    Auto,
-    /// The base settings' mode only.
-    Fixed,
-}
-
-/// Which scales [`fit_to_target`] may fit the functions on
-/// ([`brdf::ValueScale`]).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "snake_case")]
-#[non_exhaustive]
-pub enum TargetScale {
-    /// The search of the base settings' own reduction (the 3-D grid over
-    /// the whole hemisphere, by default) with every function on the log
-    /// scale, where a sharp or coloured highlight costs the fewest
-    /// coefficients; the searches after it (within a cut, the slice, the
-    /// other colour mode, the split budget) on the base settings' scale.
-    /// The validation renders choose among all their fits.
-    Auto,
-    /// The base settings' scale in every search.
-    Fixed,
-}
-
-/// What [`fit_to_target`] may choose besides the tolerance.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
-pub struct TargetChoices {
-    /// The reductions.
-    pub reduction: TargetReduction,
-    /// The colour modes.
-    pub colour: TargetColour,
-    /// The scales of the functions.
-    pub scale: TargetScale,
-    /// The 3-D grid.
-    pub grid: TargetGrid,
-}
-
-impl Default for TargetChoices {
-    /// Every choice automatic.
-    fn default() -> Self {
-        Self {
-            reduction: TargetReduction::Auto,
-            colour: TargetColour::Auto,
-            scale: TargetScale::Auto,
-            grid: TargetGrid::Auto,
-        }
-    }
-}
 
 /// The share of the time budget the search in the other colour mode
 /// ([`TargetColour::Auto`]) may start fits within, from its own start.
@@ -135,74 +65,6 @@ fn other_colour_may_help(mode: brdf::ColourMode, tried: &[TargetAttempt]) -> boo
     let limiting: Vec<char> = tried.iter().filter_map(|a| a.limiting).collect();
     let luminance = mode.names()[0];
     !limiting.is_empty() && !limiting.contains(&luminance)
-}
-
-/// Bins (`theta_h`, `theta_d`, `phi_d`) of the 3-D grid a target fit
-/// samples unless its caller names one. A finer grid renders closer as a
-/// table, but its fits need more coefficients at the same intervals and are
-/// widened sooner: on the RGL files a 16^3 grid reaches lower errors in
-/// fewer bytes than 24^3 (docs/results/fidelity-2026-12-04-target-grid.md),
-/// and than 16 x 16 x 8 or 24 x 16 x 8 where the table on it renders
-/// within 3 times the target ([`super::TargetGrid::Auto`] moves to the
-/// latter beyond; docs/results/fidelity-2026-12-07-grid-bins.md).
-pub const TARGET_GRID_3D: [usize; 3] = [16, 16, 16];
-
-/// Largest coefficient budget per function of a target fit by default
-/// (`ratfit fit --target-de`, a scene's `target_de`, the Python package):
-/// twice the budget of a plain fit, since the tolerance is the search's.
-pub const TARGET_MAX_COEFFS: usize = 120;
-
-/// The revision of [`fit_to_target`]'s search, to be raised whenever the
-/// fits it returns change: a scene's cached target fit is keyed by it, so
-/// that a fit made by another search (or cached before the key named the
-/// search) is fitted again rather than read back.
-pub const TARGET_SEARCH_REVISION: u32 = 2;
-
-/// Seconds a target fit may spend on fits and renders by default
-/// (`ratfit fit --time-budget`, a scene's `target_de`, the Python package's
-/// `time_budget`), checked between fits.
-pub const TARGET_TIME_BUDGET_S: f64 = 120.0;
-
-/// Bins (`theta_h`, `theta_d`) of the 2-D slice a target fit samples.
-pub const TARGET_SLICE: [usize; 2] = [90, 90];
-
-/// `reduction` on the grid a target fit samples unless its caller names
-/// one: [`TARGET_GRID_3D`] for a 3-D reduction, [`TARGET_SLICE`] for a 2-D
-/// one.
-pub fn on_target_grid(reduction: brdf::Reduction) -> brdf::Reduction {
-    if reduction.kind == brdf::ReductionKind::Full3d {
-        let [h, d, p] = TARGET_GRID_3D;
-        reduction.with_resolution(h, d).with_phi_resolution(p)
-    } else {
-        let [h, d] = TARGET_SLICE;
-        reduction.with_resolution(h, d)
-    }
-}
-
-/// How `phi_d` enters a target fit's 3-D coordinates unless its caller
-/// names it: as `cos phi_d`, in which the same intervals mostly need fewer
-/// coefficients (docs/results/fidelity-2026-12-06-cos-phi.md).
-pub const TARGET_PHI: brdf::PhiCoordinate = brdf::PhiCoordinate::Cosine;
-
-/// The settings a target fit starts from: the 3-D grid of
-/// [`TARGET_GRID_3D`] with `phi_d` as [`TARGET_PHI`] over the whole
-/// hemisphere, the luminance-chroma mode, the perceptual design (its half-width is the search's) and
-/// `engine` (ratfit's commands give it the staircase search), without
-/// baselines. Callers change what their user chose: the grid or an
-/// elevation cut, the colour mode, a lobe.
-pub fn target_settings(engine: rational_core::FitSettings) -> brdf::BrdfFitSettings {
-    let reduction = on_target_grid(
-        brdf::Reduction::default()
-            .with_kind(brdf::ReductionKind::Full3d)
-            .with_phi(TARGET_PHI)
-            .whole_hemisphere(),
-    );
-    brdf::BrdfFitSettings::default()
-        .with_reduction(reduction)
-        .with_baselines(false)
-        .with_colour_mode(brdf::ColourMode::LuminanceChroma)
-        .with_design(brdf::PerceptualBounds::default())
-        .with_fit_settings(engine)
 }
 
 /// The elevation (degrees) within which a 3-D fit is also made when a
