@@ -27,9 +27,10 @@ pub enum TargetGrid {
 /// narrow highlights lack samples, paid for with half the `phi_d` bins
 /// (3,072 cells against 4,096). On the five RGL files whose table renders
 /// above 3 on 16^3, their worse scene falls from 23.48 to 21.48 in all
-/// (chm_mint 5.29 to 4.27); on the six below 2, where the extra `theta_h`
-/// cells take coefficients the byte budget cannot spare, it rises
-/// (docs/results/fidelity-2026-12-07-grid-bins.md).
+/// (chm_mint 5.29 to 4.27); on five of the six below 2, where the extra
+/// `theta_h` cells take coefficients the byte budget cannot spare, it
+/// rises (vch_silk_blue's falls by 0.03;
+/// docs/results/fidelity-2026-12-07-grid-bins.md).
 pub const TARGET_FINE_GRID_3D: [usize; 3] = [24, 16, 8];
 
 /// The multiple of the target above which the table's own error on the
