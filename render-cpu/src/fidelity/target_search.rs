@@ -100,7 +100,7 @@ pub(super) fn split_budget_search(
         .with_coeff_range(lo, split_cap(base, bytes))
         .map_err(|e| crate::error::invalid("fit settings", e.to_string()))?;
     let settings = base.clone().with_fit_settings(engine);
-    search_tolerances(goal, &settings, &TOLERANCES, deadline_s, false)
+    search_tolerances(goal, &settings, &TOLERANCES, deadline_s, false, None)
 }
 
 /// What every fit of one [`super::fit_to_target`] call is judged against.
@@ -245,7 +245,9 @@ type Ahead = Option<(f64, FitOutcome)>;
 /// tolerance halfway (geometrically) between them is tried, and once more
 /// between it and the bracket's other end
 /// ([`MAX_REFINEMENTS`](super::target_walk::MAX_REFINEMENTS)). Both go
-/// on past the deadline while the search has no fit within the budgets. A channel's intervals are
+/// on past the deadline while the search has no fit within the budgets.
+/// With `loosest`, no tolerance looser than it is tried, neither given nor
+/// added by loosening (the search then ends). A channel's intervals are
 /// widened by [`WIDEN_STEP`] at most [`MAX_WIDENINGS`] times (reported):
 /// widened further, a perceptual design's floors and caps stop meaning
 /// anything.
@@ -263,6 +265,7 @@ pub(super) fn search_tolerances(
     tolerances: &[f64],
     deadline_s: f64,
     stop_at_floor: bool,
+    loosest: Option<f64>,
 ) -> Result<Search, RenderError> {
     // The tolerances of one search share their proofs of no fit: a
     // tighter tolerance, or a looser one after the widest widening, is not
@@ -275,7 +278,7 @@ pub(super) fn search_tolerances(
         best: None,
         tried: Vec::new(),
     };
-    let mut walk = Walk::new(tolerances, deadline_s, stop_at_floor);
+    let mut walk = Walk::new(tolerances, deadline_s, stop_at_floor, loosest);
     let mut ahead: Ahead = None;
     // Where the validations made beside a fit run (none: one at a time).
     let validation_pool = goal
@@ -453,7 +456,7 @@ mod tests {
                     start: Instant::now(),
                     overlap,
                 };
-                search_tolerances(&goal, &settings, &TOLERANCES, 600.0, false).unwrap()
+                search_tolerances(&goal, &settings, &TOLERANCES, 600.0, false, None).unwrap()
             };
             let (beside, alone) = (run(true), run(false));
             // Everything but the seconds.

@@ -18,6 +18,18 @@ fn looser_for_bytes(t: f64) -> Vec<f64> {
         .collect()
 }
 
+/// `queue` without the tolerances looser than `loosest` (the same
+/// tolerance reached by other steps, within rounding, is kept).
+fn within_loosest(queue: Vec<f64>, loosest: Option<f64>) -> Vec<f64> {
+    match loosest {
+        Some(l) => queue
+            .into_iter()
+            .filter(|&t| t <= l * (1.0 + 1e-9))
+            .collect(),
+        None => queue,
+    }
+}
+
 /// How many times a search bisects (geometrically) the bracket between a
 /// tolerance whose fit is within the byte budget and a tighter one past
 /// it: twice narrows a factor of 2 to 2^(1/4), about 19%.
@@ -45,6 +57,9 @@ pub(super) struct Walk {
     /// Whether a tighter tolerance that improves the error by less than
     /// 10% ends the search (the reduction's own error dominates).
     stop_at_floor: bool,
+    /// The loosest tolerance the search may try, if any: looser ones in
+    /// the queue, and those that loosening would add, are left out.
+    loosest: Option<f64>,
 }
 
 /// What a validation said of a fit within the byte budget, for [`Walk`]:
@@ -56,9 +71,16 @@ pub(super) struct Verdict {
 }
 
 impl Walk {
-    pub(super) fn new(tolerances: &[f64], deadline_s: f64, stop_at_floor: bool) -> Self {
+    /// A walk over `tolerances` (loosest first); with `loosest`, no
+    /// tolerance looser than it is tried, given or added by loosening.
+    pub(super) fn new(
+        tolerances: &[f64],
+        deadline_s: f64,
+        stop_at_floor: bool,
+        loosest: Option<f64>,
+    ) -> Self {
         Self {
-            queue: tolerances.to_vec(),
+            queue: within_loosest(tolerances.to_vec(), loosest),
             next: 0,
             loosened: false,
             loosened_for_bytes: false,
@@ -68,6 +90,7 @@ impl Walk {
             previous: f64::INFINITY,
             deadline_s,
             stop_at_floor,
+            loosest,
         }
     }
 
@@ -87,7 +110,7 @@ impl Walk {
     }
 
     fn restart_with(&mut self, queue: Vec<f64>) {
-        self.queue = queue;
+        self.queue = within_loosest(queue, self.loosest);
         self.next = 0;
     }
 
@@ -174,5 +197,48 @@ impl Walk {
         walk.after_fit(t, over_budget, None, past_deadline)
             .then(|| walk.next_tolerance())
             .flatten()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const MISSED: Option<Verdict> = Some(Verdict {
+        reached: false,
+        worst: 3.0,
+    });
+
+    #[test]
+    fn a_walk_with_a_loosest_tolerance_never_tries_a_looser_one() {
+        // Past the byte budget at 16%: looser tolerances follow, unless
+        // 16% is the loosest allowed.
+        let mut free = Walk::new(&[0.16, 0.08], 600.0, false, None);
+        assert_eq!(free.next_tolerance(), Some(0.16));
+        assert!(free.after_fit(0.16, true, None, false));
+        assert!(free.next_tolerance().is_some_and(|t| t > 0.16));
+        let mut capped = Walk::new(&[0.16, 0.08], 600.0, false, Some(0.16));
+        assert_eq!(capped.next_tolerance(), Some(0.16));
+        capped.after_fit(0.16, true, None, false);
+        assert_eq!(capped.next_tolerance(), None);
+
+        // No fit at any given tolerance: the looser ones follow up to the
+        // loosest allowed, and loosening for bytes stops there too.
+        let mut w = Walk::new(&[0.16], 600.0, false, Some(0.32));
+        assert_eq!(w.next_tolerance(), Some(0.16));
+        assert!(w.after_no_fit(false));
+        assert_eq!(w.next_tolerance(), Some(0.32));
+        w.after_fit(0.32, true, None, false);
+        assert_eq!(w.next_tolerance(), None);
+
+        // Given tolerances looser than it are left out; the tolerance
+        // between a fit within the budget and one past it is kept.
+        let mut w = Walk::new(&[0.16, 0.08, 0.04], 600.0, false, Some(0.1));
+        assert_eq!(w.next_tolerance(), Some(0.08));
+        assert!(w.after_fit(0.08, false, MISSED, false));
+        assert_eq!(w.next_tolerance(), Some(0.04));
+        assert!(w.after_fit(0.04, true, None, false));
+        let between = w.next_tolerance().expect("the tolerance between");
+        assert!((between - (0.08_f64 * 0.04).sqrt()).abs() < 1e-12);
     }
 }
