@@ -40,6 +40,7 @@ mod target_grid;
 mod target_report;
 mod target_search;
 mod target_walk;
+mod target_within_cut;
 pub use cut::{
     choose_evaluation_cut, render_check_choosing_cut, CutChoice, CutTried, EVALUATION_CUTS,
     LOWER_CUTS,

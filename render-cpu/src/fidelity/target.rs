@@ -10,6 +10,7 @@ use super::target_search::{
     search_tolerances, split_budget_search, split_cap, Best, Goal, Measured, Search, LOOSER,
     TOLERANCES,
 };
+use super::target_within_cut::{within_cut_search, WholeHemisphere};
 use super::{ValidationSettings, Validator};
 use crate::RenderError;
 use brdf::Brdf;
@@ -67,25 +68,6 @@ fn other_colour_may_help(mode: brdf::ColourMode, tried: &[TargetAttempt]) -> boo
     !limiting.is_empty() && !limiting.contains(&luminance)
 }
 
-/// The elevation (degrees) within which a 3-D fit is also made when a
-/// byte budget leaves the target unreached: its functions spend nothing on
-/// the grazing cells (the shell factor and the clamp to the cut carry
-/// them), so the same intervals cost fewer coefficients. A lower cut is
-/// used where the whole hemisphere's best fit is evaluated within one
-/// ([`within_cut_degrees`]).
-pub const TARGET_CUT_DEGREES: f64 = 70.0;
-
-/// The elevation the 3-D fits within a cut are made within: the
-/// evaluation cut of the whole hemisphere's best fit (`best_cut`) where it
-/// is below [`TARGET_CUT_DEGREES`] (the renders showed that the fit's
-/// cells beyond it are better carried by the shell factor, so fitting them
-/// spends coefficients for nothing), else [`TARGET_CUT_DEGREES`]: a cut
-/// above it gives the grazing cells back coefficients that the renders
-/// showed are better spent within it.
-fn within_cut_degrees(best_cut: Option<f64>) -> f64 {
-    best_cut.map_or(TARGET_CUT_DEGREES, |c| c.min(TARGET_CUT_DEGREES))
-}
-
 /// What [`run_searches`] found: why the fit was chosen, the fit, every
 /// attempt and the slice's floor.
 struct Searched {
@@ -115,11 +97,11 @@ fn slice_floor(goal: &Goal) -> Result<SliceFloor, RenderError> {
 
 /// The searches of [`fit_to_target`] in turn, each only while the target is
 /// unreached: the 2-D slice (with [`TargetReduction::Auto`]), `base`'s 3-D
-/// grid, and with a byte budget, the 3-D grid fitted within
-/// [`TARGET_CUT_DEGREES`] or the lower cut the whole hemisphere's best fit
-/// is evaluated within ([`within_cut_degrees`]; from the tightest
-/// tolerance the whole-hemisphere fits passed the budget at, and never
-/// looser than the tolerance of their best fit) and, when
+/// grid, and with a byte budget, the 3-D grid fitted within a cut
+/// ([`within_cut_search`]: 70 degrees or the lower cut the whole
+/// hemisphere's best fit is evaluated within, from the tightest tolerance
+/// the whole-hemisphere fits passed the budget at, and never looser than
+/// the tolerance of their best fit) and, when
 /// nothing is within the budget yet, the 3-D grid with the budget split
 /// evenly between the functions; with
 /// [`TargetColour::Auto`], the first reduction in the other colour mode
@@ -187,29 +169,16 @@ fn run_searches(
             first = None;
         }
     }
-    let (mut over_budget_at, mut best_at): (Vec<f64>, Option<f64>) = (Vec::new(), None);
-    let mut best_cut: Option<f64> = None;
+    let mut whole = WholeHemisphere::default();
     if !reached(&searches) {
         let (what, s) = own_reduction_search(goal, base, scale)?;
-        over_budget_at = (s.tried.iter())
-            .filter(|a| a.over_budget)
-            .map(|a| a.rel_tol)
-            .collect();
-        best_at = s.best.as_ref().map(|m| m.attempt.rel_tol);
-        best_cut = s.best.as_ref().and_then(|m| m.attempt.cut);
+        whole = WholeHemisphere::of(&s);
         searches.push((in_mode(&what, base.colour_mode()), s));
     }
     let whole_3d = base.reduction().kind == brdf::ReductionKind::Full3d
         && base.reduction().max_elevation_deg >= 90.0;
     if let (Some(_), true, false) = (goal.budget.bytes, whole_3d, reached(&searches)) {
-        let tolerances = within_cut_tolerances(&over_budget_at, best_at);
-        let within = within_cut_degrees(best_cut);
-        let settings = base
-            .clone()
-            .with_reduction(base.reduction().with_max_elevation(within));
-        // Looser than the whole hemisphere's best, a fit within the cut
-        // bounds the cells it keeps more loosely than that best does.
-        let s = search_tolerances(goal, &settings, &tolerances, budget_s, false, best_at)?;
+        let (within, s) = within_cut_search(goal, base, &whole)?;
         searches.push((
             in_mode(
                 &format!("the {dims}-D fits within {within} degrees"),
@@ -323,36 +292,6 @@ fn conclude(
 /// errors); `None` when there is none.
 fn lowest_error(searches: &[(String, Search)]) -> Option<usize> {
     (0..searches.len()).min_by(|&a, &b| searches[a].1.worst().total_cmp(&searches[b].1.worst()))
-}
-
-/// The tolerances of the search within a cut ([`within_cut_degrees`]): from the
-/// tightest at which the whole-hemisphere fits passed the byte budget
-/// (`over_budget_at`); when none did, from the tolerance of their best fit
-/// (`best_at`): fitted within the cut, a looser tolerance's fit has fewer
-/// bytes but renders no better than the whole hemisphere's at it, while the
-/// best one's subset of constraints is feasible with no more coefficients;
-/// the loosest of [`TOLERANCES`] when there is neither. It starts no
-/// looser than `best_at`, and the search never loosens past it either
-/// (for bytes or for lack of a fit): within
-/// the cut such a fit bounds the cells it keeps more loosely than the
-/// whole hemisphere's best, and on the 11 RGL files none rendered better
-/// than it.
-fn within_cut_tolerances(over_budget_at: &[f64], best_at: Option<f64>) -> Vec<f64> {
-    let tightest_over = over_budget_at.iter().copied().reduce(f64::min);
-    let from = tightest_over.or(best_at).unwrap_or(TOLERANCES[0]);
-    // Never above the search's ceiling (a looser fit past the budget than
-    // the best one happens where sizes do not fall with the tolerance).
-    let from = best_at.map_or(from, |b| from.min(b));
-    let tolerances: Vec<f64> = TOLERANCES
-        .iter()
-        .copied()
-        .filter(|&t| t <= from * (1.0 + 1e-9))
-        .collect();
-    if tolerances.is_empty() {
-        vec![from]
-    } else {
-        tolerances
-    }
 }
 
 /// Why search `k` was chosen, with the best error of every search.
@@ -565,44 +504,6 @@ mod tests {
             over_budget: false,
             fitted_within: None,
         }
-    }
-
-    /// The search within the cut starts where the whole-hemisphere fits
-    /// passed the byte budget, else at their best fit's tolerance, and
-    /// never looser than the best's.
-    #[test]
-    fn the_search_within_the_cut_starts_where_the_whole_hemisphere_stopped() {
-        assert_eq!(within_cut_tolerances(&[], None), TOLERANCES.to_vec());
-        assert_eq!(
-            within_cut_tolerances(&[0.08], Some(0.16)),
-            [0.08, 0.04, 0.02]
-        );
-        assert_eq!(within_cut_tolerances(&[], Some(0.04)), [0.04, 0.02]);
-        // Over the budget at 16% and best when loosened: from 16%.
-        let loosened = within_cut_tolerances(&[0.16], Some(0.16 * std::f64::consts::SQRT_2));
-        assert_eq!(loosened, TOLERANCES.to_vec());
-        // Best only when loosened for feasibility: every tolerance.
-        assert_eq!(within_cut_tolerances(&[], Some(0.32)), TOLERANCES.to_vec());
-        // Past the budget at a looser tolerance than the best: from the
-        // best, the loosest the search may try.
-        assert_eq!(
-            within_cut_tolerances(&[0.16], Some(0.08)),
-            [0.08, 0.04, 0.02]
-        );
-    }
-
-    /// The fits within a cut are made within the whole hemisphere's best
-    /// evaluation cut where it is below 70 degrees, else within 70.
-    #[test]
-    fn the_fits_within_a_cut_follow_a_lower_cut_of_the_whole_hemisphere() {
-        let cuts = [None, Some(65.0), Some(70.0), Some(75.0), Some(80.0)];
-        let c = TARGET_CUT_DEGREES;
-        // The cut is one of the inputs, never computed: compared bit for bit.
-        let bits = |v: [f64; 5]| v.map(f64::to_bits);
-        assert_eq!(
-            bits(cuts.map(within_cut_degrees)),
-            bits([c, 65.0, 70.0, c, c])
-        );
     }
 
     /// RGB follows luminance-chroma only where a chroma ratio, never the
