@@ -94,7 +94,9 @@ pub struct FitArgs {
     #[arg(long, conflicts_with_all = ["perceptual", "spread"], value_parser = crate::args::positive)]
     target_de: Option<f64>,
     /// Seconds `--target-de` may spend on fits and renders before it
-    /// returns the best fit so far.
+    /// returns the best fit so far: no fit starts past it once one within
+    /// the byte budget is in hand (the last one started may run past it),
+    /// and the report names the searches left out.
     #[arg(long, default_value_t = render_cpu::fidelity::TARGET_TIME_BUDGET_S, value_parser = crate::args::positive)]
     time_budget: f64,
     /// With `--target-de`: the most bytes (f32, a shell factor included)

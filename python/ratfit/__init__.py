@@ -165,7 +165,9 @@ def fit_brdf(path: str, format: Optional[str] = None, **options: Any) -> FittedM
             ``max_coeffs``, ``search`` ("staircase"; "exhaustive" visits every
             split, for the same fits on real materials in several times the
             time), ``target_de`` (the smallest fit whose
-            validation renders reach that mean CIEDE2000), ``time_budget``,
+            validation renders reach that mean CIEDE2000), ``time_budget``
+            (seconds, default 120: past it no fit starts once one within
+            the budgets is in hand),
             ``max_bytes`` (with ``target_de``: the most bytes the fit
             returned may have; fits over it are tried, never returned),
             ``render_check`` (default True: render the fit beside the table

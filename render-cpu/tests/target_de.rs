@@ -116,6 +116,16 @@ fn a_byte_budget_without_a_target_is_refused() {
     );
 }
 
+/// The glossy Blinn-Phong material of these searches (a function of
+/// `theta_h` alone).
+fn glossy_blinn_phong() -> std::sync::Arc<brdf::BlinnPhong> {
+    std::sync::Arc::new(brdf::BlinnPhong {
+        kd: [0.2, 0.3, 0.1],
+        ks: [0.3, 0.3, 0.3],
+        exponent: 30.0,
+    })
+}
+
 /// The report of an RGB target fit of a glossy Blinn-Phong material on a
 /// `bins` 3-D grid within `max_coeffs` coefficients per function and
 /// `max_bytes`, validated on tiny renders.
@@ -143,16 +153,12 @@ fn glossy_target_fit_in(
     max_bytes: Option<usize>,
     colour: (brdf::ColourMode, TargetColour),
 ) -> Result<render_cpu::fidelity::TargetReport, render_cpu::RenderError> {
-    let glossy = std::sync::Arc::new(brdf::BlinnPhong {
-        kd: [0.2, 0.3, 0.1],
-        ks: [0.3, 0.3, 0.3],
-        exponent: 30.0,
-    });
+    let glossy = glossy_blinn_phong();
     let fixed = render_cpu::fidelity::TargetReduction::Fixed;
     let linear = render_cpu::fidelity::TargetScale::Fixed;
     target_fit(
         glossy,
-        target,
+        (target, 60.0),
         (bins, max_coeffs, max_bytes),
         colour,
         (fixed, linear),
@@ -161,10 +167,11 @@ fn glossy_target_fit_in(
 
 /// A target fit of `material` from `grid`'s 3-D grid (bins, coefficients per
 /// function and byte budget), in `colour`, with the reductions and scales
-/// `choices` allows (from linear functions), validated on tiny renders.
+/// `choices` allows (from linear functions), validated on tiny renders,
+/// within `seconds`.
 fn target_fit(
     material: std::sync::Arc<dyn brdf::Brdf>,
-    target: f64,
+    (target, seconds): (f64, f64),
     grid: ([usize; 3], usize, Option<usize>),
     colour: (brdf::ColourMode, TargetColour),
     choices: (
@@ -209,7 +216,7 @@ fn target_fit(
         &settings,
         choices,
         validation,
-        TargetBudget::seconds(60.0).with_bytes(max_bytes),
+        TargetBudget::seconds(seconds).with_bytes(max_bytes),
     )
     .map(|(fitted, report)| {
         assert_eq!(fitted.byte_size_f32(), report.bytes);
@@ -438,7 +445,14 @@ fn auto_reduction_report(
     let lc = (ColourMode::LuminanceChroma, TargetColour::Fixed);
     let auto = render_cpu::fidelity::TargetReduction::Auto;
     let linear = render_cpu::fidelity::TargetScale::Fixed;
-    target_fit(material, target, ([6, 6, 4], 30, None), lc, (auto, linear)).unwrap()
+    target_fit(
+        material,
+        (target, 60.0),
+        ([6, 6, 4], 30, None),
+        lc,
+        (auto, linear),
+    )
+    .unwrap()
 }
 
 /// With the scales automatic, the whole hemisphere's fits have every
@@ -447,18 +461,21 @@ fn auto_reduction_report(
 /// it returns, which evaluates as its functions' `exp`.
 #[test]
 fn automatic_scales_fit_the_whole_hemisphere_on_the_log_scale_and_the_cut_linearly() {
-    let glossy = std::sync::Arc::new(brdf::BlinnPhong {
-        kd: [0.2, 0.3, 0.1],
-        ks: [0.3, 0.3, 0.3],
-        exponent: 30.0,
-    });
+    let glossy = glossy_blinn_phong();
     let lc = (ColourMode::LuminanceChroma, TargetColour::Fixed);
     let choices = (
         render_cpu::fidelity::TargetReduction::Fixed,
         render_cpu::fidelity::TargetScale::Auto,
     );
     // Unreachable, with a byte budget: the search within the cut runs too.
-    let report = target_fit(glossy, 1e-3, ([6, 6, 4], 30, Some(1024)), lc, choices).unwrap();
+    let report = target_fit(
+        glossy,
+        (1e-3, 60.0),
+        ([6, 6, 4], 30, Some(1024)),
+        lc,
+        choices,
+    )
+    .unwrap();
     let (whole, within): (Vec<_>, Vec<_>) =
         report.tried.iter().partition(|a| a.fitted_within.is_none());
     assert!(!whole.is_empty() && !within.is_empty(), "{report}");
@@ -484,11 +501,7 @@ fn automatic_scales_fit_the_whole_hemisphere_on_the_log_scale_and_the_cut_linear
 #[test]
 fn the_slice_is_searched_first_only_when_its_floor_reaches_the_target() {
     // Blinn-Phong depends on theta_h alone: the slice loses nothing.
-    let blinn: std::sync::Arc<dyn brdf::Brdf> = std::sync::Arc::new(brdf::BlinnPhong {
-        kd: [0.2, 0.3, 0.1],
-        ks: [0.3, 0.3, 0.3],
-        exponent: 30.0,
-    });
+    let blinn: std::sync::Arc<dyn brdf::Brdf> = glossy_blinn_phong();
     let easy = auto_reduction_report(blinn, 3.0);
     let floor = easy
         .slice_floor
@@ -521,4 +534,59 @@ fn the_slice_is_searched_first_only_when_its_floor_reaches_the_target() {
     assert!(hard
         .to_string()
         .contains("the table seen through the 2-D slice"));
+}
+
+/// Past the time budget no search starts once a fit within the budgets is
+/// in hand, and the report names the searches left out; the first search
+/// goes on until it has a fit, however small the budget.
+#[test]
+fn a_spent_time_budget_starts_no_search_once_a_fit_is_in_hand() {
+    let glossy = glossy_blinn_phong();
+    let fixed = (
+        render_cpu::fidelity::TargetReduction::Fixed,
+        render_cpu::fidelity::TargetScale::Fixed,
+    );
+    let auto_colour = (ColourMode::Rgb, TargetColour::Auto);
+    // Unreachable, with a byte budget: with time, the search within a cut
+    // and the other colour mode follow the whole hemisphere's fits.
+    let search = |seconds: f64| {
+        target_fit(
+            glossy.clone(),
+            (1e-3, seconds),
+            ([6, 6, 4], 30, Some(1024)),
+            auto_colour,
+            fixed,
+        )
+        .unwrap()
+    };
+    let with_time = search(600.0);
+    assert!(
+        with_time.tried.iter().any(|a| a.fitted_within.is_some()),
+        "{with_time}"
+    );
+    assert!(
+        !with_time.to_string().contains("not searched"),
+        "{with_time}"
+    );
+    let spent = search(1e-6);
+    assert!(spent.bytes > 0 && spent.bytes <= 1024, "{spent}");
+    assert!(spent
+        .tried
+        .iter()
+        .any(|a| !a.over_budget && a.result.is_some()));
+    assert!(
+        spent.tried.iter().all(|a| a.fitted_within.is_none()),
+        "{spent}"
+    );
+    assert!(
+        spent.tried.iter().all(|a| a.colour == ColourMode::Rgb),
+        "{spent}"
+    );
+    let text = spent.to_string();
+    assert!(
+        text.contains(
+            "not searched, the time budget of 0.000001 s being spent: the 3-D fits within"
+        ),
+        "{text}"
+    );
 }

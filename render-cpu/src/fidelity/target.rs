@@ -18,31 +18,52 @@ use std::sync::Arc;
 use std::time::Instant;
 
 /// The share of the time budget the search in the other colour mode
-/// ([`TargetColour::Auto`]) may start fits within, from its own start.
+/// ([`TargetColour::Auto`]) may start fits within, from its own start
+/// (and never past the budget itself).
 const OTHER_COLOUR_SHARE: f64 = 0.6;
 
 /// The share of the time budget the slice's search may start fits within:
 /// from the start of the target fit when it comes first, from its own
-/// start when it follows the 3-D fits.
+/// start when it follows the 3-D fits (and never past the budget itself).
 const SLICE_SHARE: f64 = 0.4;
 
 /// A search of the slice (or of the first reduction in another colour
 /// mode) with `settings`: the three loosest tolerances, ending where a
 /// tighter one improves by less than 10% (the reduction's own error
 /// dominates), starting fits until `deadline_s` (seconds from the start
-/// of the target fit).
+/// of the target fit; `fit_in_hand` as in [`search_tolerances`]).
 fn reduction_search(
     goal: &Goal,
     settings: &brdf::BrdfFitSettings,
     deadline_s: f64,
+    fit_in_hand: bool,
 ) -> Result<Search, RenderError> {
-    search_tolerances(goal, settings, &TOLERANCES[..3], deadline_s, true, None)
+    search_tolerances(
+        goal,
+        settings,
+        &TOLERANCES[..3],
+        deadline_s,
+        true,
+        None,
+        fit_in_hand,
+    )
 }
 
 /// The deadline (seconds from the start of the target fit) `share` of the
-/// time budget from now.
+/// time budget from now, and never past the budget itself.
 fn share_from_now(goal: &Goal, share: f64) -> f64 {
-    goal.start.elapsed().as_secs_f64() + share * goal.budget.seconds
+    (goal.start.elapsed().as_secs_f64() + share * goal.budget.seconds).min(goal.budget.seconds)
+}
+
+/// Whether a search that has not started may be left out: a fit within
+/// the budgets is in hand and the time budget is spent.
+fn time_spent(goal: &Goal, searches: &[(String, Search)]) -> bool {
+    fit_in_hand(searches) && goal.start.elapsed().as_secs_f64() > goal.budget.seconds
+}
+
+/// Whether any of `searches` has a fit within the budgets.
+fn fit_in_hand(searches: &[(String, Search)]) -> bool {
+    searches.iter().any(|(_, s)| s.best.is_some())
 }
 
 /// The colour mode [`TargetColour::Auto`] tries after `mode`.
@@ -92,6 +113,7 @@ fn slice_floor(goal: &Goal) -> Result<SliceFloor, RenderError> {
         within_deg,
         worst_mean_de: goal.validator.measure(Arc::new(view))?.worst_mean(),
         searched: false,
+        left_for_time: false,
     })
 }
 
@@ -130,14 +152,9 @@ fn run_searches(
     let base = &base;
     let budget_s = goal.budget.seconds;
     let dims = base.reduction().dims();
-    let mut searches: Vec<(String, Search)> = Vec::new();
-    let reached =
-        |searches: &[(String, Search)]| searches.iter().any(|(_, s)| s.worst() <= goal.target_de);
-    // Searches are named with their colour mode once two modes are tried.
-    let in_mode = |what: &str, mode: brdf::ColourMode| match colour {
-        TargetColour::Auto => format!("{what} in {mode}"),
-        TargetColour::Fixed => what.to_string(),
-    };
+    let mut run = Searches::default();
+    let reached = |searches: &Searches| searches.reached(goal.target_de);
+    let in_mode = |what: &str, mode: brdf::ColourMode| in_mode(colour, what, mode);
     let slice_name = in_mode("the 2-D slice", base.colour_mode());
     // The first reduction searched and its index: the other colour mode is
     // tried on it (not on a slice left unsearched).
@@ -147,133 +164,213 @@ fn run_searches(
     let mut deferred = None;
     let mut floor = None;
     if reduction == TargetReduction::Auto {
-        let r = on_target_grid(
-            slice_base
-                .reduction()
-                .with_kind(brdf::ReductionKind::Slice2d)
-                .whole_hemisphere(),
-        );
-        let settings = slice_base.clone().with_reduction(r);
-        let f = slice_floor(goal)?;
-        if f.worst_mean_de <= goal.target_de {
-            let s = reduction_search(goal, &settings, SLICE_SHARE * budget_s)?;
-            searches.push((slice_name.clone(), s));
-            floor = Some(SliceFloor {
-                searched: true,
-                ..f
-            });
+        let (settings, f, searched) = slice_first(goal, slice_base)?;
+        floor = Some(f);
+        if let Some(s) = searched {
+            run.searches.push((slice_name.clone(), s));
             first = Some((settings, 0));
         } else {
-            floor = Some(f);
             deferred = Some(settings);
             first = None;
         }
     }
-    let mut whole = WholeHemisphere::default();
-    if !reached(&searches) {
-        let (what, s) = own_reduction_search(goal, base, scale)?;
-        whole = WholeHemisphere::of(&s);
-        searches.push((in_mode(&what, base.colour_mode()), s));
+    // What the whole hemisphere's search found, when it ran.
+    let mut whole = None;
+    if !reached(&run) {
+        let (what, own) = own_reduction(base, scale);
+        let what = in_mode(&what, base.colour_mode());
+        if let Some(s) = run.unless_spent(goal, what, |in_hand| {
+            search_tolerances(goal, &own, &TOLERANCES, budget_s, false, None, in_hand)
+        })? {
+            whole = Some(WholeHemisphere::of(s));
+        }
     }
     let whole_3d = base.reduction().kind == brdf::ReductionKind::Full3d
         && base.reduction().max_elevation_deg >= 90.0;
-    if let (Some(_), true, false) = (goal.budget.bytes, whole_3d, reached(&searches)) {
-        let (within, s) = within_cut_search(goal, base, &whole)?;
-        searches.push((
-            in_mode(
-                &format!("the {dims}-D fits within {within} degrees"),
-                base.colour_mode(),
-            ),
-            s,
-        ));
+    if let (Some(_), true, false) = (goal.budget.bytes, whole_3d, reached(&run)) {
+        let cut = whole.as_ref().map_or("a cut".to_string(), |w| {
+            format!("{} degrees", w.cut_degrees())
+        });
+        let what = in_mode(
+            &format!("the {dims}-D fits within {cut}"),
+            base.colour_mode(),
+        );
+        let whole = whole.unwrap_or_default();
+        run.unless_spent(goal, what, |in_hand| {
+            within_cut_search(goal, base, &whole, in_hand)
+        })?;
     }
     if let (Some(settings), Some(f)) = (deferred, floor.as_mut()) {
-        let best = lowest_error(&searches).map_or(f64::INFINITY, |k| searches[k].1.worst());
+        let best = lowest_error(&run.searches).map_or(f64::INFINITY, |k| run.searches[k].1.worst());
         if best > f.worst_mean_de {
             // Its own allowance, as when it is searched first.
-            let s = reduction_search(goal, &settings, share_from_now(goal, SLICE_SHARE))?;
-            searches.push((slice_name, s));
-            f.searched = true;
-            first = Some((settings, searches.len() - 1));
+            let deadline_s = share_from_now(goal, SLICE_SHARE);
+            let searched = run.unless_spent(goal, slice_name, |in_hand| {
+                reduction_search(goal, &settings, deadline_s, in_hand)
+            })?;
+            f.searched = searched.is_some();
+            f.left_for_time = searched.is_none();
+            if f.searched {
+                first = Some((settings, run.searches.len() - 1));
+            }
         }
     }
-    if let (TargetColour::Auto, false, Some(first)) = (colour, reached(&searches), first) {
+    if let (TargetColour::Auto, false, Some(first)) = (colour, reached(&run), first) {
         let what = match reduction {
             TargetReduction::Auto => "the 2-D slice".to_string(),
             TargetReduction::Fixed => format!("the {dims}-D fits"),
         };
-        if let Some((mode, s)) = other_colour_search(goal, base.colour_mode(), &searches, first)? {
-            searches.push((in_mode(&what, mode), s));
-        }
+        other_colour_search(goal, &mut run, base.colour_mode(), first, &what)?;
     }
-    let found = searches.iter().any(|(_, s)| s.best.is_some());
-    if let (Some(bytes), false) = (goal.budget.bytes, found) {
-        let s = split_budget_search(goal, base, bytes, budget_s)?;
-        searches.push((
-            format!(
-                "the {dims}-D fits with the budget split evenly between the {} functions ({} coefficients each at most)",
-                base.colour_mode().names().len(),
-                split_cap(base, bytes)
-            ),
-            s,
-        ));
+    if let (Some(bytes), false) = (goal.budget.bytes, fit_in_hand(&run.searches)) {
+        let name = format!(
+            "the {dims}-D fits with the budget split evenly between the {} functions ({} coefficients each at most)",
+            base.colour_mode().names().len(),
+            split_cap(base, bytes)
+        );
+        run.searches
+            .push((name, split_budget_search(goal, base, bytes, budget_s)?));
     }
-    Ok(conclude(searches, floor, grid_choice))
+    Ok(conclude(run, floor, grid_choice, budget_s))
 }
 
-/// The search of `base`'s own reduction over [`TOLERANCES`], on the log
-/// scale with [`TargetScale::Auto`], and its name.
-fn own_reduction_search(
+/// A search's name: `what`, in `mode` when the colour mode is left to the
+/// search (two modes may then be tried).
+fn in_mode(colour: TargetColour, what: &str, mode: brdf::ColourMode) -> String {
+    match colour {
+        TargetColour::Auto => format!("{what} in {mode}"),
+        TargetColour::Fixed => what.to_string(),
+    }
+}
+
+/// The search of `first`'s reduction (its settings and index among the
+/// searches, named `what`) in the other colour mode than `mode`, recorded
+/// in `run`: only where that reduction still holds the best fit and
+/// [`other_colour_may_help`], and with a time allowance of its own from
+/// its start, within the budget.
+fn other_colour_search(
     goal: &Goal,
+    run: &mut Searches,
+    mode: brdf::ColourMode,
+    (settings, k): (brdf::BrdfFitSettings, usize),
+    what: &str,
+) -> Result<(), RenderError> {
+    let searches = &run.searches;
+    if lowest_error(searches) != Some(k) || !other_colour_may_help(mode, &searches[k].1.tried) {
+        return Ok(());
+    }
+    let other = other_colour(mode);
+    let settings = settings.with_colour_mode(other);
+    let deadline_s = share_from_now(goal, OTHER_COLOUR_SHARE);
+    run.unless_spent(goal, in_mode(TargetColour::Auto, what, other), |in_hand| {
+        reduction_search(goal, &settings, deadline_s, in_hand)
+    })?;
+    Ok(())
+}
+
+/// With [`TargetReduction::Auto`]: the slice's settings (from
+/// `slice_base`), what the table seen through it renders at, and the
+/// slice's search when that reaches the target, so that the slice is
+/// searched first; otherwise its search waits for the 3-D fits.
+fn slice_first(
+    goal: &Goal,
+    slice_base: &brdf::BrdfFitSettings,
+) -> Result<(brdf::BrdfFitSettings, SliceFloor, Option<Search>), RenderError> {
+    let r = on_target_grid(
+        slice_base
+            .reduction()
+            .with_kind(brdf::ReductionKind::Slice2d)
+            .whole_hemisphere(),
+    );
+    let settings = slice_base.clone().with_reduction(r);
+    let f = slice_floor(goal)?;
+    if f.worst_mean_de > goal.target_de {
+        return Ok((settings, f, None));
+    }
+    let s = reduction_search(goal, &settings, SLICE_SHARE * goal.budget.seconds, false)?;
+    let searched = SliceFloor {
+        searched: true,
+        ..f
+    };
+    Ok((settings, searched, Some(s)))
+}
+
+/// The searches [`run_searches`] made, in order, with their names, and the
+/// names of those left out because the time budget was spent.
+#[derive(Default)]
+struct Searches {
+    searches: Vec<(String, Search)>,
+    left_for_time: Vec<String>,
+}
+
+impl Searches {
+    /// Whether a search's best fit reaches `target_de`.
+    fn reached(&self, target_de: f64) -> bool {
+        self.searches.iter().any(|(_, s)| s.worst() <= target_de)
+    }
+
+    /// Runs `search` (given whether a fit within the budgets is in hand)
+    /// and records it as `name`, unless [`time_spent`]: then `name` is
+    /// recorded as left out. Returns the search when it ran.
+    fn unless_spent(
+        &mut self,
+        goal: &Goal,
+        name: String,
+        search: impl FnOnce(bool) -> Result<Search, RenderError>,
+    ) -> Result<Option<&Search>, RenderError> {
+        if time_spent(goal, &self.searches) {
+            self.left_for_time.push(name);
+            return Ok(None);
+        }
+        let s = search(fit_in_hand(&self.searches))?;
+        self.searches.push((name, s));
+        Ok(self.searches.last().map(|(_, s)| s))
+    }
+}
+
+/// The settings of `base`'s own reduction's search, on the log scale with
+/// [`TargetScale::Auto`], and its name.
+fn own_reduction(
     base: &brdf::BrdfFitSettings,
     scale: TargetScale,
-) -> Result<(String, Search), RenderError> {
+) -> (String, brdf::BrdfFitSettings) {
     let own = match scale {
         TargetScale::Auto => base.clone().with_value_scale(brdf::ValueScale::Log),
         TargetScale::Fixed => base.clone(),
     };
-    let s = search_tolerances(goal, &own, &TOLERANCES, goal.budget.seconds, false, None)?;
     let on_scale = match own.value_scale() {
         brdf::ValueScale::Linear => String::new(),
         other => format!(" ({other} scale)"),
     };
     let dims = base.reduction().dims();
-    Ok((format!("the {dims}-D fits{on_scale}"), s))
+    (format!("the {dims}-D fits{on_scale}"), own)
 }
 
-/// The search of `first`'s reduction (its settings and index in
-/// `searches`) in the other colour mode than `mode`: only where that
-/// reduction still holds the best fit and [`other_colour_may_help`], and
-/// with a time allowance of its own (it runs after the budget's deadline
-/// on the slowest files). Returns the mode and the search.
-fn other_colour_search(
-    goal: &Goal,
-    mode: brdf::ColourMode,
-    searches: &[(String, Search)],
-    (settings, k): (brdf::BrdfFitSettings, usize),
-) -> Result<Option<(brdf::ColourMode, Search)>, RenderError> {
-    if lowest_error(searches) != Some(k) || !other_colour_may_help(mode, &searches[k].1.tried) {
-        return Ok(None);
-    }
-    let other = other_colour(mode);
-    let settings = settings.with_colour_mode(other);
-    let s = reduction_search(goal, &settings, share_from_now(goal, OTHER_COLOUR_SHARE))?;
-    Ok(Some((other, s)))
-}
-
-/// Every attempt of `searches`, and the best fit of the one with the
-/// lowest worse-scene error, with why it was chosen.
+/// Every attempt of `run`'s searches, and the best fit of the one with the
+/// lowest worse-scene error, with why it was chosen and which searches the
+/// time budget (`budget_s`) left out.
 fn conclude(
-    mut searches: Vec<(String, Search)>,
+    run: Searches,
     slice_floor: Option<SliceFloor>,
     grid_choice: Option<GridChoice>,
+    budget_s: f64,
 ) -> Searched {
+    let Searches {
+        mut searches,
+        left_for_time,
+    } = run;
     let tried = searches
         .iter()
         .flat_map(|(_, s)| s.tried.iter().cloned())
         .collect();
     let k = lowest_error(&searches).unwrap_or(0);
-    let why = why_chosen(&searches, k);
+    let mut why = why_chosen(&searches, k);
+    if !left_for_time.is_empty() {
+        why.push_str(&format!(
+            "; not searched, the time budget of {budget_s} s being spent: {}",
+            left_for_time.join(", ")
+        ));
+    }
     let best = if searches.is_empty() {
         None
     } else {
@@ -326,10 +423,13 @@ fn why_chosen(searches: &[(String, Search)], k: usize) -> String {
 /// ([`super::choose_evaluation_cut`]). Tolerances from
 /// `+-16%` down to `+-2%` are tried in turn (looser intervals give fewer
 /// coefficients, usually), stopping at the first that reaches the target
-/// or when `budget.seconds` is spent (checked between fits, so the last fit
-/// may run past it, and a search with no fit within the coefficient and
-/// byte budgets yet goes on loosening past it); when none does, the fit
-/// with the lowest error is returned and the report says so. With `budget.bytes`, only fits within
+/// or when `budget.seconds` is spent; when none does, the fit
+/// with the lowest error is returned and the report says so. The time
+/// budget is checked between fits, so the last fit and its validation may
+/// run past it; past it no fit starts, in any search, once one fit within
+/// the coefficient and byte budgets is in hand (until then the searches go
+/// on loosening: a search cut short then would return nothing), and the
+/// report names the searches left out. With `budget.bytes`, only fits within
 /// it are returned: no function is given more coefficients than the budget
 /// holds (an RGB channel a third of it), a shell factor that would pass it is left out, and a tolerance
 /// whose fit passes it is followed by looser ones (by sqrt 2, to +-64%;
@@ -338,7 +438,7 @@ fn why_chosen(searches: &[(String, Search)], k: usize) -> String {
 /// search runs again with the budget split evenly between the functions.
 ///
 /// With [`TargetReduction::Auto`], the 2-D slice (90 x 90 grid) is also
-/// searched, for at most 40% of the budget: it costs fewer bytes, but its
+/// searched, for at most 40% of the budget from its own start: it costs fewer bytes, but its
 /// error stops falling at what the reduction itself loses (a tighter
 /// tolerance that improves by less than 10% ends it). What the table seen
 /// through the slice renders at ([`super::SliceFloor`], one validation)
@@ -354,7 +454,7 @@ fn why_chosen(searches: &[(String, Search)], k: usize) -> String {
 /// the other colour mode (RGB after luminance-chroma) when the target is
 /// unreached, that reduction holds the best fit and the chroma ratios,
 /// not the luminance, limited it; that search starts fits within 60% of
-/// the time budget from its own start. With [`TargetScale::Auto`], the
+/// the time budget from its own start (within the budget itself). With [`TargetScale::Auto`], the
 /// search of `base`'s own reduction fits every function on the log scale
 /// and the others on `base`'s scale. `base`
 /// gives the engine, grid and design (its relative half-width is

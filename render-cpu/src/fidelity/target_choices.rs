@@ -97,11 +97,12 @@ pub const TARGET_MAX_COEFFS: usize = 120;
 /// fits it returns change: a scene's cached target fit is keyed by it, so
 /// that a fit made by another search (or cached before the key named the
 /// search) is fitted again rather than read back.
-pub const TARGET_SEARCH_REVISION: u32 = 3;
+pub const TARGET_SEARCH_REVISION: u32 = 4;
 
 /// Seconds a target fit may spend on fits and renders by default
 /// (`ratfit fit --time-budget`, a scene's `target_de`, the Python package's
-/// `time_budget`), checked between fits.
+/// `time_budget`), checked between fits: past it no fit starts once one
+/// within the budgets is in hand.
 pub const TARGET_TIME_BUDGET_S: f64 = 120.0;
 
 /// Bins (`theta_h`, `theta_d`) of the 2-D slice a target fit samples.

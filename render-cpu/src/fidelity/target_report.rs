@@ -101,7 +101,8 @@ impl std::fmt::Display for TargetAttempt {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct TargetBudget {
     /// Seconds of fits and renders, checked between fits (the last fit
-    /// may run past it).
+    /// and its validation may run past it). Past it no fit starts once one
+    /// within the byte budget is in hand; until then the search goes on.
     pub seconds: f64,
     /// Bytes (f32) of the fit returned, its shell factor included; `None`:
     /// no limit. Fits that pass it are tried and reported, never returned.
@@ -154,6 +155,9 @@ pub struct SliceFloor {
     pub worst_mean_de: f64,
     /// Whether the slice's fits were searched.
     pub searched: bool,
+    /// Whether its search, due after the 3-D fits, was left out because
+    /// the time budget was spent with a fit in hand.
+    pub left_for_time: bool,
 }
 
 /// What [`super::fit_to_target`] reached.
@@ -292,10 +296,11 @@ impl std::fmt::Display for TargetReport {
                 "  the table seen through the 2-D slice within {} degrees (the table beyond) renders at {:.3} (worse scene): {}",
                 floor.within_deg,
                 floor.worst_mean_de,
-                match (floor.worst_mean_de <= self.target_de, floor.searched) {
-                    (true, _) => "the slice was searched first",
-                    (false, true) => "above the target, so the slice was searched after the 3-D fits, whose best rendered above it",
-                    (false, false) => "above the target and the 3-D fits' best, so no slice fit was tried",
+                match (floor.worst_mean_de <= self.target_de, floor.searched, floor.left_for_time) {
+                    (true, _, _) => "the slice was searched first",
+                    (false, true, _) => "above the target, so the slice was searched after the 3-D fits, whose best rendered above it",
+                    (false, false, true) => "above the target, so the slice was due after the 3-D fits, whose best rendered above it, but the time budget was spent",
+                    (false, false, false) => "above the target and the 3-D fits' best, so no slice fit was tried",
                 }
             )?;
         }

@@ -100,7 +100,7 @@ pub(super) fn split_budget_search(
         .with_coeff_range(lo, split_cap(base, bytes))
         .map_err(|e| crate::error::invalid("fit settings", e.to_string()))?;
     let settings = base.clone().with_fit_settings(engine);
-    search_tolerances(goal, &settings, &TOLERANCES, deadline_s, false, None)
+    search_tolerances(goal, &settings, &TOLERANCES, deadline_s, false, None, false)
 }
 
 /// What every fit of one [`super::fit_to_target`] call is judged against.
@@ -244,8 +244,10 @@ type Ahead = Option<(f64, FitOutcome)>;
 /// tighter one past it bracket the tightest tolerance within it: the
 /// tolerance halfway (geometrically) between them is tried, and once more
 /// between it and the bracket's other end
-/// ([`MAX_REFINEMENTS`](super::target_walk::MAX_REFINEMENTS)). Both go
-/// on past the deadline while the search has no fit within the budgets.
+/// ([`MAX_REFINEMENTS`](super::target_walk::MAX_REFINEMENTS)). Looser
+/// tolerances follow past the deadline while neither this search nor an
+/// earlier one (`fit_in_hand`) has a fit within the budgets: the search
+/// then has nothing to return.
 /// With `loosest`, no tolerance looser than it is tried, neither given nor
 /// added by loosening (the search then ends). A channel's intervals are
 /// widened by [`WIDEN_STEP`] at most [`MAX_WIDENINGS`] times (reported):
@@ -266,6 +268,7 @@ pub(super) fn search_tolerances(
     deadline_s: f64,
     stop_at_floor: bool,
     loosest: Option<f64>,
+    fit_in_hand: bool,
 ) -> Result<Search, RenderError> {
     // The tolerances of one search share their proofs of no fit: a
     // tighter tolerance, or a looser one after the widest widening, is not
@@ -278,7 +281,7 @@ pub(super) fn search_tolerances(
         best: None,
         tried: Vec::new(),
     };
-    let mut walk = Walk::new(tolerances, deadline_s, stop_at_floor, loosest);
+    let mut walk = Walk::new(tolerances, deadline_s, stop_at_floor, loosest, fit_in_hand);
     let mut ahead: Ahead = None;
     // Where the validations made beside a fit run (none: one at a time).
     let validation_pool = goal
@@ -314,7 +317,7 @@ pub(super) fn search_tolerances(
                     over_budget: false,
                     fitted_within: fitted_within(&settings),
                 });
-                if walk.after_no_fit(search.best.is_some()) {
+                if walk.after_no_fit(search.best.is_some(), walk.past_deadline(goal)) {
                     continue;
                 }
                 break;
@@ -456,7 +459,7 @@ mod tests {
                     start: Instant::now(),
                     overlap,
                 };
-                search_tolerances(&goal, &settings, &TOLERANCES, 600.0, false, None).unwrap()
+                search_tolerances(&goal, &settings, &TOLERANCES, 600.0, false, None, false).unwrap()
             };
             let (beside, alone) = (run(true), run(false));
             // Everything but the seconds.

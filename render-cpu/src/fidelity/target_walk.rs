@@ -60,6 +60,10 @@ pub(super) struct Walk {
     /// The loosest tolerance the search may try, if any: looser ones in
     /// the queue, and those that loosening would add, are left out.
     loosest: Option<f64>,
+    /// Whether an earlier search holds a fit within the budgets: past the
+    /// deadline no fit follows then, not even a looser one for lack of a
+    /// fit of this search's own.
+    fit_in_hand: bool,
 }
 
 /// What a validation said of a fit within the byte budget, for [`Walk`]:
@@ -73,11 +77,14 @@ pub(super) struct Verdict {
 impl Walk {
     /// A walk over `tolerances` (loosest first); with `loosest`, no
     /// tolerance looser than it is tried, given or added by loosening.
+    /// `fit_in_hand`: an earlier search holds a fit within the budgets, so
+    /// that past the deadline nothing follows.
     pub(super) fn new(
         tolerances: &[f64],
         deadline_s: f64,
         stop_at_floor: bool,
         loosest: Option<f64>,
+        fit_in_hand: bool,
     ) -> Self {
         Self {
             queue: within_loosest(tolerances.to_vec(), loosest),
@@ -91,6 +98,7 @@ impl Walk {
             deadline_s,
             stop_at_floor,
             loosest,
+            fit_in_hand,
         }
     }
 
@@ -116,7 +124,10 @@ impl Walk {
 
     /// After no fit within the coefficient budget: whether the search goes
     /// on (`have_best`: a fit within the budgets was found before).
-    pub(super) fn after_no_fit(&mut self, have_best: bool) -> bool {
+    pub(super) fn after_no_fit(&mut self, have_best: bool, past_deadline: bool) -> bool {
+        if past_deadline && self.fit_in_hand {
+            return false;
+        }
         if !have_best && !self.loosened {
             // Even the loosest is infeasible: loosen instead.
             self.restart_with(LOOSER.to_vec());
@@ -152,7 +163,11 @@ impl Walk {
             }
             // Nothing within the byte budget yet: looser tolerances follow
             // even past the deadline, as they do when nothing is feasible
-            // (a search cut here returns nothing for the time it spent).
+            // (a search cut here returns nothing for the time it spent),
+            // unless an earlier search's fit is there to return.
+            if past_deadline && self.fit_in_hand {
+                return false;
+            }
             if !self.loosened_for_bytes {
                 self.restart_with(looser_for_bytes(t));
                 self.loosened_for_bytes = true;
@@ -213,32 +228,52 @@ mod tests {
     fn a_walk_with_a_loosest_tolerance_never_tries_a_looser_one() {
         // Past the byte budget at 16%: looser tolerances follow, unless
         // 16% is the loosest allowed.
-        let mut free = Walk::new(&[0.16, 0.08], 600.0, false, None);
+        let mut free = Walk::new(&[0.16, 0.08], 600.0, false, None, false);
         assert_eq!(free.next_tolerance(), Some(0.16));
         assert!(free.after_fit(0.16, true, None, false));
         assert!(free.next_tolerance().is_some_and(|t| t > 0.16));
-        let mut capped = Walk::new(&[0.16, 0.08], 600.0, false, Some(0.16));
+        let mut capped = Walk::new(&[0.16, 0.08], 600.0, false, Some(0.16), false);
         assert_eq!(capped.next_tolerance(), Some(0.16));
         capped.after_fit(0.16, true, None, false);
         assert_eq!(capped.next_tolerance(), None);
 
         // No fit at any given tolerance: the looser ones follow up to the
         // loosest allowed, and loosening for bytes stops there too.
-        let mut w = Walk::new(&[0.16], 600.0, false, Some(0.32));
+        let mut w = Walk::new(&[0.16], 600.0, false, Some(0.32), false);
         assert_eq!(w.next_tolerance(), Some(0.16));
-        assert!(w.after_no_fit(false));
+        assert!(w.after_no_fit(false, false));
         assert_eq!(w.next_tolerance(), Some(0.32));
         w.after_fit(0.32, true, None, false);
         assert_eq!(w.next_tolerance(), None);
 
         // Given tolerances looser than it are left out; the tolerance
         // between a fit within the budget and one past it is kept.
-        let mut w = Walk::new(&[0.16, 0.08, 0.04], 600.0, false, Some(0.1));
+        let mut w = Walk::new(&[0.16, 0.08, 0.04], 600.0, false, Some(0.1), false);
         assert_eq!(w.next_tolerance(), Some(0.08));
         assert!(w.after_fit(0.08, false, MISSED, false));
         assert_eq!(w.next_tolerance(), Some(0.04));
         assert!(w.after_fit(0.04, true, None, false));
         let between = w.next_tolerance().expect("the tolerance between");
         assert!((between - (0.08_f64 * 0.04).sqrt()).abs() < 1e-12);
+    }
+
+    #[test]
+    fn past_the_deadline_a_walk_loosens_only_while_no_search_has_a_fit() {
+        // No fit, or a fit past the byte budget, past the deadline: looser
+        // tolerances follow when nothing else could be returned, and
+        // nothing follows when an earlier search's fit could.
+        for fit_in_hand in [false, true] {
+            let mut w = Walk::new(&[0.16], 600.0, false, None, fit_in_hand);
+            assert_eq!(w.next_tolerance(), Some(0.16));
+            assert_eq!(w.after_no_fit(false, true), !fit_in_hand);
+            let mut w = Walk::new(&[0.16], 600.0, false, None, fit_in_hand);
+            assert_eq!(w.next_tolerance(), Some(0.16));
+            assert_eq!(w.after_fit(0.16, true, None, true), !fit_in_hand);
+            // Before the deadline the walk is the same either way.
+            let mut w = Walk::new(&[0.16], 600.0, false, None, fit_in_hand);
+            assert_eq!(w.next_tolerance(), Some(0.16));
+            assert!(w.after_fit(0.16, true, None, false));
+            assert!(w.next_tolerance().is_some_and(|t| t > 0.16));
+        }
     }
 }

@@ -46,33 +46,41 @@ impl WholeHemisphere {
             best_cut: search.best.as_ref().and_then(|m| m.attempt.cut),
         }
     }
+
+    /// The cut (degrees) the search within a cut fits within
+    /// ([`within_cut_degrees`]).
+    pub(super) fn cut_degrees(&self) -> f64 {
+        within_cut_degrees(self.best_cut)
+    }
 }
 
 /// The search of `base`'s 3-D grid within [`within_cut_degrees`] of the
 /// normal, over [`within_cut_tolerances`] and no looser than the whole
-/// hemisphere's best tolerance, until the time budget's deadline. Returns
-/// the cut (degrees) and the search.
+/// hemisphere's best tolerance, until the time budget's deadline
+/// (`fit_in_hand`: an earlier search has a fit within the budgets, so that
+/// past the deadline nothing follows).
 pub(super) fn within_cut_search(
     goal: &Goal,
     base: &brdf::BrdfFitSettings,
     whole: &WholeHemisphere,
-) -> Result<(f64, Search), RenderError> {
+    fit_in_hand: bool,
+) -> Result<Search, RenderError> {
     let tolerances = within_cut_tolerances(&whole.over_budget_at, whole.best_at);
-    let within = within_cut_degrees(whole.best_cut);
+    let within = whole.cut_degrees();
     let settings = base
         .clone()
         .with_reduction(base.reduction().with_max_elevation(within));
     // Looser than the whole hemisphere's best, a fit within the cut
     // bounds the cells it keeps more loosely than that best does.
-    let s = search_tolerances(
+    search_tolerances(
         goal,
         &settings,
         &tolerances,
         goal.budget.seconds,
         false,
         whole.best_at,
-    )?;
-    Ok((within, s))
+        fit_in_hand,
+    )
 }
 
 /// The tolerances of the search within a cut ([`within_cut_degrees`]): from the
