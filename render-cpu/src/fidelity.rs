@@ -39,6 +39,7 @@ mod target_choices;
 mod target_grid;
 mod target_report;
 mod target_search;
+mod target_searches;
 mod target_walk;
 mod target_within_cut;
 pub use cut::{

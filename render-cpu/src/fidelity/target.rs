@@ -4,12 +4,12 @@
 use super::target_choices::{
     on_target_grid, TargetChoices, TargetColour, TargetReduction, TargetScale,
 };
-use super::target_grid::{choose_grid, grid_floor, GridChoice};
+use super::target_grid::{choose_grid, grid_floor};
 use super::target_report::{SliceFloor, TargetAttempt, TargetBudget, TargetReport};
 use super::target_search::{
-    search_tolerances, split_budget_search, split_cap, Best, Goal, Measured, Search, LOOSER,
-    TOLERANCES,
+    search_tolerances, split_budget_search, split_cap, Goal, Measured, Search, LOOSER, TOLERANCES,
 };
+use super::target_searches::{conclude, fit_in_hand, lowest_error, Searched, Searches};
 use super::target_within_cut::{within_cut_search, WholeHemisphere};
 use super::{ValidationSettings, Validator};
 use crate::RenderError;
@@ -55,17 +55,6 @@ fn share_from_now(goal: &Goal, share: f64) -> f64 {
     (goal.start.elapsed().as_secs_f64() + share * goal.budget.seconds).min(goal.budget.seconds)
 }
 
-/// Whether a search that has not started may be left out: a fit within
-/// the budgets is in hand and the time budget is spent.
-fn time_spent(goal: &Goal, searches: &[(String, Search)]) -> bool {
-    fit_in_hand(searches) && goal.start.elapsed().as_secs_f64() > goal.budget.seconds
-}
-
-/// Whether any of `searches` has a fit within the budgets.
-fn fit_in_hand(searches: &[(String, Search)]) -> bool {
-    searches.iter().any(|(_, s)| s.best.is_some())
-}
-
 /// The colour mode [`TargetColour::Auto`] tries after `mode`.
 fn other_colour(mode: brdf::ColourMode) -> brdf::ColourMode {
     match mode {
@@ -87,16 +76,6 @@ fn other_colour_may_help(mode: brdf::ColourMode, tried: &[TargetAttempt]) -> boo
     let limiting: Vec<char> = tried.iter().filter_map(|a| a.limiting).collect();
     let luminance = mode.names()[0];
     !limiting.is_empty() && !limiting.contains(&luminance)
-}
-
-/// What [`run_searches`] found: why the fit was chosen, the fit, every
-/// attempt and the slice's floor.
-struct Searched {
-    why: String,
-    best: Best,
-    tried: Vec<TargetAttempt>,
-    slice_floor: Option<SliceFloor>,
-    grid_choice: Option<GridChoice>,
 }
 
 /// The worse-scene error of the table seen through the 2-D slice
@@ -295,39 +274,6 @@ fn slice_first(
     Ok((settings, searched, Some(s)))
 }
 
-/// The searches [`run_searches`] made, in order, with their names, and the
-/// names of those left out because the time budget was spent.
-#[derive(Default)]
-struct Searches {
-    searches: Vec<(String, Search)>,
-    left_for_time: Vec<String>,
-}
-
-impl Searches {
-    /// Whether a search's best fit reaches `target_de`.
-    fn reached(&self, target_de: f64) -> bool {
-        self.searches.iter().any(|(_, s)| s.worst() <= target_de)
-    }
-
-    /// Runs `search` (given whether a fit within the budgets is in hand)
-    /// and records it as `name`, unless [`time_spent`]: then `name` is
-    /// recorded as left out. Returns the search when it ran.
-    fn unless_spent(
-        &mut self,
-        goal: &Goal,
-        name: String,
-        search: impl FnOnce(bool) -> Result<Search, RenderError>,
-    ) -> Result<Option<&Search>, RenderError> {
-        if time_spent(goal, &self.searches) {
-            self.left_for_time.push(name);
-            return Ok(None);
-        }
-        let s = search(fit_in_hand(&self.searches))?;
-        self.searches.push((name, s));
-        Ok(self.searches.last().map(|(_, s)| s))
-    }
-}
-
 /// The settings of `base`'s own reduction's search, on the log scale with
 /// [`TargetScale::Auto`], and its name.
 fn own_reduction(
@@ -344,76 +290,6 @@ fn own_reduction(
     };
     let dims = base.reduction().dims();
     (format!("the {dims}-D fits{on_scale}"), own)
-}
-
-/// Every attempt of `run`'s searches, and the best fit of the one with the
-/// lowest worse-scene error, with why it was chosen and which searches the
-/// time budget (`budget_s`) left out.
-fn conclude(
-    run: Searches,
-    slice_floor: Option<SliceFloor>,
-    grid_choice: Option<GridChoice>,
-    budget_s: f64,
-) -> Searched {
-    let Searches {
-        mut searches,
-        left_for_time,
-    } = run;
-    let tried = searches
-        .iter()
-        .flat_map(|(_, s)| s.tried.iter().cloned())
-        .collect();
-    let k = lowest_error(&searches).unwrap_or(0);
-    let mut why = why_chosen(&searches, k);
-    if !left_for_time.is_empty() {
-        why.push_str(&format!(
-            "; not searched, the time budget of {budget_s} s being spent: {}",
-            left_for_time.join(", ")
-        ));
-    }
-    let best = if searches.is_empty() {
-        None
-    } else {
-        searches.swap_remove(k).1.best
-    };
-    Searched {
-        why,
-        best,
-        tried,
-        slice_floor,
-        grid_choice,
-    }
-}
-
-/// The search with the lowest worse-scene error (the earlier between equal
-/// errors); `None` when there is none.
-fn lowest_error(searches: &[(String, Search)]) -> Option<usize> {
-    (0..searches.len()).min_by(|&a, &b| searches[a].1.worst().total_cmp(&searches[b].1.worst()))
-}
-
-/// Why search `k` was chosen, with the best error of every search.
-fn why_chosen(searches: &[(String, Search)], k: usize) -> String {
-    let parts: Vec<String> = searches
-        .iter()
-        .map(|(what, s)| {
-            let w = s.worst();
-            match (w.is_finite(), what.contains("slice")) {
-                (true, true) => format!("{what} {w:.3} (what that reduction loses)"),
-                (true, false) => format!("{what} {w:.3}"),
-                (false, _) => format!("{what} none within the budget"),
-            }
-        })
-        .collect();
-    match searches.get(k) {
-        Some((what, s)) if s.best.is_some() => format!(
-            "{what} chosen; the best fit of each search renders at (worse scene): {}",
-            parts.join(", ")
-        ),
-        _ => format!(
-            "no fit within the budget; the best fit of each search renders at (worse scene): {}",
-            parts.join(", ")
-        ),
-    }
 }
 
 /// The smallest perceptual fit whose validation renders reach mean
