@@ -36,7 +36,9 @@ pub struct FitArgs {
     #[arg(long, default_value_t = 1e-2, value_parser = crate::args::fraction)]
     noise_floor: f64,
     /// Largest coefficient budget per channel (default 60, and 120 with
-    /// `--target-de`).
+    /// `--target-de`, which, unless this is given, doubles it once for the
+    /// best search where it rather than `--max-bytes` stopped that search
+    /// short of the target).
     #[arg(long, value_parser = crate::args::coefficients)]
     max_coeffs: Option<usize>,
     /// Samples with theta_d above this (degrees, in (0, 90]) are not fitted.
@@ -438,6 +440,7 @@ fn run_fit_target(
             None => render_cpu::fidelity::TargetGrid::Auto,
             Some(_) => render_cpu::fidelity::TargetGrid::Fixed,
         },
+        coefficients: render_cpu::fidelity::TargetCoefficients::unless_named(args.max_coeffs),
     };
     let fitted = render_cpu::fidelity::fit_to_target(
         material.clone(),

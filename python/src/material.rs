@@ -11,7 +11,8 @@ use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict, PyTuple};
 use render_cpu::fidelity::{
-    fit_to_target, TargetBudget, TargetChoices, TargetColour, TargetGrid, TargetReduction,
+    fit_to_target, TargetBudget, TargetChoices, TargetCoefficients, TargetColour, TargetGrid,
+    TargetReduction,
     TargetScale, ValidationSettings,
 };
 use std::path::Path;
@@ -172,6 +173,7 @@ pub fn fit_brdf(
                 colour,
                 scale,
                 grid,
+                coefficients: TargetCoefficients::unless_named(o.max_coeffs),
             };
             let (fitted, report) = fit_to_target(
                 table.clone(),

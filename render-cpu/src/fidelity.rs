@@ -37,6 +37,7 @@ mod split;
 mod target;
 mod target_choices;
 mod target_grid;
+mod target_larger_budget;
 mod target_report;
 mod target_search;
 mod target_searches;
@@ -49,9 +50,9 @@ pub use cut::{
 pub use split::{colour_split, ColourSplit};
 pub use target::fit_to_target;
 pub use target_choices::{
-    on_target_grid, target_settings, TargetChoices, TargetColour, TargetReduction, TargetScale,
-    TARGET_GRID_3D, TARGET_MAX_COEFFS, TARGET_PHI, TARGET_SEARCH_REVISION, TARGET_SLICE,
-    TARGET_TIME_BUDGET_S,
+    on_target_grid, target_settings, TargetChoices, TargetCoefficients, TargetColour,
+    TargetReduction, TargetScale, LARGER_BUDGET_FACTOR, LARGER_BUDGET_REACH, TARGET_GRID_3D,
+    TARGET_MAX_COEFFS, TARGET_PHI, TARGET_SEARCH_REVISION, TARGET_SLICE, TARGET_TIME_BUDGET_S,
 };
 pub use target_grid::{GridChoice, TargetGrid, FINE_GRID_FLOOR_FACTOR, TARGET_FINE_GRID_3D};
 pub use target_report::{GridFloor, SliceFloor, TargetAttempt, TargetBudget, TargetReport};

@@ -168,7 +168,7 @@ fn glossy_target_fit_in(
 /// A target fit of `material` from `grid`'s 3-D grid (bins, coefficients per
 /// function and byte budget), in `colour`, with the reductions and scales
 /// `choices` allows (from linear functions), validated on tiny renders,
-/// within `seconds`.
+/// within `seconds`; the grid and the coefficient budget are the test's own.
 fn target_fit(
     material: std::sync::Arc<dyn brdf::Brdf>,
     (target, seconds): (f64, f64),
@@ -177,6 +177,28 @@ fn target_fit(
     choices: (
         render_cpu::fidelity::TargetReduction,
         render_cpu::fidelity::TargetScale,
+    ),
+) -> Result<render_cpu::fidelity::TargetReport, render_cpu::RenderError> {
+    let coefficients = render_cpu::fidelity::TargetCoefficients::Fixed;
+    target_fit_with(
+        material,
+        (target, seconds),
+        grid,
+        colour,
+        (choices.0, choices.1, coefficients),
+    )
+}
+
+/// [`target_fit`] with the coefficient budget's choice given.
+fn target_fit_with(
+    material: std::sync::Arc<dyn brdf::Brdf>,
+    (target, seconds): (f64, f64),
+    grid: ([usize; 3], usize, Option<usize>),
+    colour: (brdf::ColourMode, TargetColour),
+    choices: (
+        render_cpu::fidelity::TargetReduction,
+        render_cpu::fidelity::TargetScale,
+        render_cpu::fidelity::TargetCoefficients,
     ),
 ) -> Result<render_cpu::fidelity::TargetReport, render_cpu::RenderError> {
     use brdf::{BrdfFitSettings, PerceptualBounds, Reduction, ReductionKind};
@@ -209,6 +231,7 @@ fn target_fit(
         colour: colour.1,
         scale: choices.1,
         grid: render_cpu::fidelity::TargetGrid::Fixed,
+        coefficients: choices.2,
     };
     fit_to_target(
         material,
@@ -589,4 +612,67 @@ fn a_spent_time_budget_starts_no_search_once_a_fit_is_in_hand() {
         ),
         "{text}"
     );
+}
+
+/// With the coefficient budget left to the search, a target missed by at
+/// most twice, whose tightest tolerance the budget bounded, is searched
+/// again with twice the budget, from that tolerance and never looser, and
+/// the report names the budget of each such fit; not with the budget
+/// fixed, nor where the byte budget cannot hold every function at the
+/// first budget, nor for a target missed by more than twice.
+#[test]
+fn a_missed_target_bounded_by_coefficients_is_searched_with_twice_the_budget() {
+    use render_cpu::fidelity::TargetCoefficients;
+    let glossy = glossy_blinn_phong();
+    let lc = (ColourMode::LuminanceChroma, TargetColour::Fixed);
+    let search = |target: f64, coefficients: TargetCoefficients, max_bytes: Option<usize>| {
+        let fixed = render_cpu::fidelity::TargetReduction::Fixed;
+        let linear = render_cpu::fidelity::TargetScale::Fixed;
+        target_fit_with(
+            glossy.clone(),
+            (target, 600.0),
+            ([6, 6, 4], 8, max_bytes),
+            lc,
+            (fixed, linear, coefficients),
+        )
+        .unwrap()
+    };
+    let fixed = search(1e-3, TargetCoefficients::Fixed, None);
+    assert!(!fixed.reached);
+    // A target the first search's best fit misses by 1.5 times: no fit of
+    // that search reaches it, so that search runs as for 1e-3.
+    let worst = fixed.scenes.iter().map(|s| s.mean_de).fold(0.0, f64::max);
+    let near = worst / 1.5;
+    assert!(fixed.tried.iter().all(|a| a.larger_budget.is_none()));
+    // The precondition: the budget of 8 bounds the tightest tolerance.
+    let tightest = (fixed.tried.iter())
+        .min_by(|a, b| a.rel_tol.total_cmp(&b.rel_tol))
+        .unwrap();
+    assert!(
+        tightest.result.is_none() || tightest.widened > 1.0,
+        "{fixed}"
+    );
+    let auto = search(near, TargetCoefficients::Auto, None);
+    let (first, larger): (Vec<_>, Vec<_>) =
+        auto.tried.iter().partition(|a| a.larger_budget.is_none());
+    assert_eq!(first.len(), fixed.tried.len(), "{auto}");
+    assert!(!larger.is_empty(), "{auto}");
+    assert!(larger.iter().all(|a| a.larger_budget == Some(16)), "{auto}");
+    assert!(
+        larger.iter().all(|a| a.rel_tol <= tightest.rel_tol),
+        "{auto}"
+    );
+    assert!(
+        auto.to_string()
+            .contains("with up to 16 coefficients per function"),
+        "{auto}"
+    );
+    // Three functions of 8 coefficients need 96 bytes: the bytes bound first.
+    let bytes = search(near, TargetCoefficients::Auto, Some(95));
+    assert!(
+        bytes.tried.iter().all(|a| a.larger_budget.is_none()),
+        "{bytes}"
+    );
+    let far = search(worst / 3.0, TargetCoefficients::Auto, None);
+    assert!(far.tried.iter().all(|a| a.larger_budget.is_none()), "{far}");
 }

@@ -5,6 +5,7 @@ use super::target_choices::{
     on_target_grid, TargetChoices, TargetColour, TargetReduction, TargetScale,
 };
 use super::target_grid::{choose_grid, grid_floor};
+use super::target_larger_budget::larger_budget_search;
 use super::target_report::{SliceFloor, TargetAttempt, TargetBudget, TargetReport};
 use super::target_search::{
     search_tolerances, split_budget_search, split_cap, Goal, Measured, Search, LOOSER, TOLERANCES,
@@ -106,7 +107,9 @@ fn slice_floor(goal: &Goal) -> Result<SliceFloor, RenderError> {
 /// nothing is within the budget yet, the 3-D grid with the budget split
 /// evenly between the functions; with
 /// [`TargetColour::Auto`], the first reduction in the other colour mode
-/// comes before that last one (see [`TargetColour::Auto`]). The slice is
+/// comes before that last one (see [`TargetColour::Auto`]), and with
+/// [`super::TargetCoefficients::Auto`], the best search again with a larger
+/// coefficient budget ([`larger_budget_search`]) before it too. The slice is
 /// searched first only when the table seen through it ([`SliceFloor`])
 /// reaches the target; otherwise after the 3-D searches, and only when
 /// their best fit renders above that floor (below it, a slice fit would
@@ -124,6 +127,7 @@ fn run_searches(
         colour,
         scale,
         grid,
+        coefficients,
     } = choices;
     // The slice keeps the caller's settings; the 3-D searches take the grid.
     let slice_base = base;
@@ -201,6 +205,7 @@ fn run_searches(
         };
         other_colour_search(goal, &mut run, base.colour_mode(), first, &what)?;
     }
+    larger_budget_search(goal, &mut run, coefficients)?;
     if let (Some(bytes), false) = (goal.budget.bytes, fit_in_hand(&run.searches)) {
         let name = format!(
             "the {dims}-D fits with the budget split evenly between the {} functions ({} coefficients each at most)",
@@ -312,6 +317,14 @@ fn own_reduction(
 /// within a cut, to the whole hemisphere's best tolerance at most)
 /// instead of tighter ones; when still no fit is within it, the 3-D
 /// search runs again with the budget split evenly between the functions.
+/// With [`super::TargetCoefficients::Auto`], while the target is unreached and
+/// the best fit renders within twice it ([`super::LARGER_BUDGET_REACH`]),
+/// the search with the lowest error runs again with twice the coefficient
+/// budget per function ([`super::LARGER_BUDGET_FACTOR`]) from its tightest
+/// tolerance, where that budget rather than the byte budget stopped it (a
+/// function had no fit within it or was widened there, and the byte budget
+/// holds every function at it): without a byte budget, the target then
+/// decides the size beyond the base settings' budget too.
 ///
 /// With [`TargetReduction::Auto`], the 2-D slice (90 x 90 grid) is also
 /// searched, for at most 40% of the budget from its own start: it costs fewer bytes, but its
@@ -479,6 +492,7 @@ mod tests {
             shell: false,
             over_budget: false,
             fitted_within: None,
+            larger_budget: None,
         }
     }
 

@@ -53,6 +53,55 @@ pub enum TargetScale {
     Fixed,
 }
 
+/// Which coefficient budgets [`super::fit_to_target`] may give a function.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+#[non_exhaustive]
+pub enum TargetCoefficients {
+    /// The base settings' budget; then, while the target is unreached, the
+    /// best search renders within [`LARGER_BUDGET_REACH`] times it, and
+    /// that budget rather than the byte budget bounds that search (at its
+    /// tightest tolerance a function had no fit within it, or was widened,
+    /// and the byte budget holds every function at that budget), that
+    /// search again from that tolerance with [`LARGER_BUDGET_FACTOR`]
+    /// times the budget. A larger budget at every tolerance would widen
+    /// less and spend more bytes on the looser tolerances too.
+    Auto,
+    /// The base settings' budget only (a budget the user named).
+    Fixed,
+}
+
+impl TargetCoefficients {
+    /// [`Self::Fixed`] when the caller named a coefficient budget
+    /// (`--max-coeffs`, a scene's or the Python package's `max_coeffs`),
+    /// [`Self::Auto`] otherwise.
+    pub fn unless_named(max_coeffs: Option<usize>) -> Self {
+        match max_coeffs {
+            None => Self::Auto,
+            Some(_) => Self::Fixed,
+        }
+    }
+}
+
+/// What [`TargetCoefficients::Auto`] multiplies the coefficient budget by:
+/// once, since a split's solve grows quickly with its size (aurora_white's
+/// luminance at 2% has no fit within 120 coefficients and one within 240,
+/// whose fit takes more than half of the search's time).
+pub const LARGER_BUDGET_FACTOR: usize = 2;
+
+/// How far above the target (a multiple of it, worse scene) the best fit
+/// may render for [`TargetCoefficients::Auto`] to search with a larger
+/// budget. Twice the coefficients buy about one more halving of the
+/// tolerance, and a halving lowers the render error by about 1.5 times on
+/// the RGL files (aurora_white: 3.66, 2.32, 1.35, 0.92 at 16%, 8%, 4%,
+/// 2%). Without a byte budget, the larger budget took aurora_white from
+/// 1.35 to 0.92 and cc_nothern_aurora from 1.36 to 1.00, and
+/// cc_iris_purple_gem from 1.85 to 1.33 (93 s for that fit); from 4.2 to
+/// 4.9 it found no fit on chm_mint, a worse one on cc_green_malachite (166
+/// s) and 2.99 from 4.30 on chm_light_blue in 134 s, far from the target
+/// (docs/results/fidelity-2026-12-07-larger-budget.md).
+pub const LARGER_BUDGET_REACH: f64 = 2.0;
+
 /// What [`super::fit_to_target`] may choose besides the tolerance.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 pub struct TargetChoices {
@@ -64,6 +113,8 @@ pub struct TargetChoices {
     pub scale: TargetScale,
     /// The 3-D grid.
     pub grid: TargetGrid,
+    /// The coefficient budget per function.
+    pub coefficients: TargetCoefficients,
 }
 
 impl Default for TargetChoices {
@@ -74,6 +125,7 @@ impl Default for TargetChoices {
             colour: TargetColour::Auto,
             scale: TargetScale::Auto,
             grid: TargetGrid::Auto,
+            coefficients: TargetCoefficients::Auto,
         }
     }
 }
@@ -97,7 +149,7 @@ pub const TARGET_MAX_COEFFS: usize = 120;
 /// fits it returns change: a scene's cached target fit is keyed by it, so
 /// that a fit made by another search (or cached before the key named the
 /// search) is fitted again rather than read back.
-pub const TARGET_SEARCH_REVISION: u32 = 4;
+pub const TARGET_SEARCH_REVISION: u32 = 5;
 
 /// Seconds a target fit may spend on fits and renders by default
 /// (`ratfit fit --time-budget`, a scene's `target_de`, the Python package's

@@ -43,6 +43,19 @@ pub struct TargetAttempt {
     /// The elevation cut (degrees) the functions were fitted within;
     /// `None`: the whole hemisphere.
     pub fitted_within: Option<f64>,
+    /// The coefficient budget per function, when the search raised it
+    /// above the base settings' ([`super::TargetCoefficients::Auto`]);
+    /// `None`: the base settings' budget.
+    pub larger_budget: Option<usize>,
+}
+
+impl TargetAttempt {
+    /// The raised coefficient budget as the report line names it.
+    fn budget_text(&self) -> String {
+        self.larger_budget.map_or(String::new(), |n| {
+            format!(" with up to {n} coefficients per function")
+        })
+    }
 }
 
 impl std::fmt::Display for TargetAttempt {
@@ -53,13 +66,14 @@ impl std::fmt::Display for TargetAttempt {
         match self.result {
             Some((bytes, worst)) => write!(
                 f,
-                "tried {}-D {}{}{} +-{}%{}: {bytes} bytes{}, worse mean CIEDE2000 {worst:.3}{} ({:.1} s)",
+                "tried {}-D {}{}{} +-{}%{}{}: {bytes} bytes{}, worse mean CIEDE2000 {worst:.3}{} ({:.1} s)",
                 self.dims,
                 self.colour,
                 self.scale.suffix(),
                 self.fitted_within
                     .map_or(String::new(), |c| format!(" within {c} degrees")),
                 brdf::scale_text(self.rel_tol * 100.0),
+                self.budget_text(),
                 match (self.widened > 1.0, self.limiting) {
                     (true, Some(c)) =>
                         format!(" (widened x{}: {c})", brdf::scale_text(self.widened)),
@@ -83,13 +97,14 @@ impl std::fmt::Display for TargetAttempt {
             ),
             None => write!(
                 f,
-                "tried {}-D {}{}{} +-{}%: no fit within the coefficient budget{} ({:.1} s)",
+                "tried {}-D {}{}{} +-{}%{}: no fit within the coefficient budget{} ({:.1} s)",
                 self.dims,
                 self.colour,
                 self.scale.suffix(),
                 self.fitted_within
                     .map_or(String::new(), |c| format!(" within {c} degrees")),
                 brdf::scale_text(self.rel_tol * 100.0),
+                self.budget_text(),
                 self.limiting.map_or(String::new(), |c| format!(" for {c}")),
                 self.seconds
             ),

@@ -16,6 +16,9 @@ use std::time::Instant;
 pub(super) struct Search {
     pub(super) best: Best,
     pub(super) tried: Vec<TargetAttempt>,
+    /// The settings searched (before the target's engine changes), for a
+    /// search of the same reduction with a larger coefficient budget.
+    pub(super) settings: brdf::BrdfFitSettings,
 }
 
 impl Search {
@@ -218,6 +221,7 @@ fn measure(
         shell,
         over_budget: budget.passed_by(bytes),
         fitted_within: fitted_within(settings),
+        larger_budget: None,
     };
     Ok(Measured {
         fitted,
@@ -270,6 +274,7 @@ pub(super) fn search_tolerances(
     loosest: Option<f64>,
     fit_in_hand: bool,
 ) -> Result<Search, RenderError> {
+    let searched = settings.clone();
     // The tolerances of one search share their proofs of no fit: a
     // tighter tolerance, or a looser one after the widest widening, is not
     // solved again where they cover it.
@@ -280,6 +285,7 @@ pub(super) fn search_tolerances(
     let mut search = Search {
         best: None,
         tried: Vec::new(),
+        settings: searched,
     };
     let mut walk = Walk::new(tolerances, deadline_s, stop_at_floor, loosest, fit_in_hand);
     let mut ahead: Ahead = None;
@@ -316,6 +322,7 @@ pub(super) fn search_tolerances(
                     shell: false,
                     over_budget: false,
                     fitted_within: fitted_within(&settings),
+                    larger_budget: None,
                 });
                 if walk.after_no_fit(search.best.is_some(), walk.past_deadline(goal)) {
                     continue;

@@ -139,6 +139,7 @@ impl MaterialBuilder<'_> {
         else {
             unreachable!("build_fitted is called on fitted materials");
         };
+        let coefficients = crate::fidelity::TargetCoefficients::unless_named(max_coeffs);
         let max_coeffs = max_coeffs.unwrap_or(if target_de.is_some() {
             crate::fidelity::TARGET_MAX_COEFFS
         } else {
@@ -156,7 +157,7 @@ impl MaterialBuilder<'_> {
         }
         let settings_text = format!(
             "fitted source={source} rel_tol={rel_tol} dims={dims} max_coeffs={max_coeffs} target_de={target_de:?}{}",
-            key_additions(lobe, max_elevation, max_bytes, target_de.is_some())
+            key_additions(lobe, max_elevation, max_bytes, target_de.and(Some(coefficients)))
         );
         let fitted = match self
             .cache
@@ -179,11 +180,8 @@ impl MaterialBuilder<'_> {
                     .with_lobe(lobe.then(|| brdf::Lobe::fit(src.as_ref())));
                 let (fitted, summary) = match target_de {
                     Some(target) => {
-                        let budget = crate::fidelity::TargetBudget::seconds(
-                            crate::fidelity::TARGET_TIME_BUDGET_S,
-                        )
-                        .with_bytes(max_bytes);
-                        fit_for_target(&src, target, settings, max_elevation, budget)?
+                        let plan = (max_elevation, max_bytes, coefficients);
+                        fit_for_target(&src, target, settings, plan)?
                     }
                     None => {
                         let (f, report) = brdf::fit_brdf(src.as_ref(), &settings)
@@ -330,12 +328,14 @@ impl MaterialBuilder<'_> {
 /// What a fitted material's cache key adds to its basic settings. Fits
 /// without a lobe, a cut or a byte budget keep the keys they had before
 /// those keys existed; a target fit names its validation renders and time
-/// budget, so that a fit chosen on other renders is not read back.
+/// budget, so that a fit chosen on other renders is not read back, and
+/// whether its coefficient budget was named (`target`: the coefficient
+/// choice of a target fit; `None` for a plain fit).
 fn key_additions(
     lobe: bool,
     max_elevation: Option<f64>,
     max_bytes: Option<usize>,
-    target: bool,
+    target: Option<crate::fidelity::TargetCoefficients>,
 ) -> String {
     let mut text = String::new();
     if lobe {
@@ -347,7 +347,7 @@ fn key_additions(
     if let Some(b) = max_bytes {
         text += &format!(" max_bytes={b}");
     }
-    if target {
+    if let Some(coefficients) = target {
         let v = crate::fidelity::ValidationSettings::default();
         text += &format!(
             " validation={}px,{}spp,seed{},{}s",
@@ -359,6 +359,10 @@ fn key_additions(
         // The search may end in RGB on the slice: a fit chosen by the
         // luminance-chroma searches alone is not read back.
         text += " colour=auto";
+        // A budget the scene named is not raised by the search.
+        if coefficients == crate::fidelity::TargetCoefficients::Fixed {
+            text += " max_coeffs=named";
+        }
         text += &format!(" search={}", crate::fidelity::TARGET_SEARCH_REVISION);
     }
     text
@@ -369,16 +373,22 @@ fn key_additions(
 /// (or within `max_elevation`), the 2-D slice and the grid of
 /// [`crate::fidelity::TARGET_GRID_3D`] in the order of
 /// [`crate::fidelity::fit_to_target`], validated on the renders `ratfit fit --target-de` uses
-/// ([`crate::fidelity::ValidationSettings::default`]) within `budget`
-/// ([`crate::fidelity::TARGET_TIME_BUDGET_S`]), so that both return the
-/// same fit; returns the fit and what it reached.
+/// ([`crate::fidelity::ValidationSettings::default`]) within
+/// [`crate::fidelity::TARGET_TIME_BUDGET_S`] and `max_bytes`, with the
+/// coefficient budget raised or not as `coefficients` says, so that both
+/// return the same fit; returns the fit and what it reached.
 fn fit_for_target(
     src: &Arc<dyn Brdf>,
     target: f64,
     settings: BrdfFitSettings,
-    max_elevation: Option<f64>,
-    budget: crate::fidelity::TargetBudget,
+    (max_elevation, max_bytes, coefficients): (
+        Option<f64>,
+        Option<usize>,
+        crate::fidelity::TargetCoefficients,
+    ),
 ) -> Result<(FittedBrdf, String), RenderError> {
+    let budget = crate::fidelity::TargetBudget::seconds(crate::fidelity::TARGET_TIME_BUDGET_S)
+        .with_bytes(max_bytes);
     let engine = settings
         .fit_settings()
         .clone()
@@ -395,7 +405,10 @@ fn fit_for_target(
         src.clone(),
         target,
         &settings,
-        crate::fidelity::TargetChoices::default(),
+        crate::fidelity::TargetChoices {
+            coefficients,
+            ..Default::default()
+        },
         crate::fidelity::ValidationSettings::default(),
         budget,
     )?;
@@ -549,10 +562,15 @@ mod tests {
 
     #[test]
     fn a_target_fit_is_keyed_by_its_search_and_plain_fits_keep_their_keys() {
-        assert_eq!(key_additions(false, None, None, false), "");
-        let target = key_additions(false, None, Some(1024), true);
+        use crate::fidelity::TargetCoefficients;
+        assert_eq!(key_additions(false, None, None, None), "");
+        let target = key_additions(false, None, Some(1024), Some(TargetCoefficients::Auto));
         let revision = format!(" search={}", crate::fidelity::TARGET_SEARCH_REVISION);
         assert!(target.ends_with(&revision), "{target}");
         assert!(target.contains(" max_bytes=1024"), "{target}");
+        // A named coefficient budget, which the search does not raise, is
+        // another fit.
+        let named = key_additions(false, None, Some(1024), Some(TargetCoefficients::Fixed));
+        assert_ne!(named, target);
     }
 }
