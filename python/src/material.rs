@@ -12,8 +12,7 @@ use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict, PyTuple};
 use render_cpu::fidelity::{
     fit_to_target, TargetBudget, TargetChoices, TargetCoefficients, TargetColour, TargetGrid,
-    TargetReduction,
-    TargetScale, ValidationSettings,
+    TargetReduction, TargetScale, ValidationSettings,
 };
 use std::path::Path;
 use std::sync::Arc;

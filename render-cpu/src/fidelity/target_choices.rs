@@ -96,7 +96,7 @@ pub const LARGER_BUDGET_FACTOR: usize = 2;
 /// the RGL files (aurora_white: 3.66, 2.32, 1.35, 0.92 at 16%, 8%, 4%,
 /// 2%). Without a byte budget, the larger budget took aurora_white from
 /// 1.35 to 0.92 and cc_nothern_aurora from 1.36 to 1.00, and
-/// cc_iris_purple_gem from 1.85 to 1.33 (93 s for that fit); from 4.2 to
+/// cc_iris_purple_gem from 1.85 to 1.33 (93 to 102 s for that fit); from 4.2 to
 /// 4.9 it found no fit on chm_mint, a worse one on cc_green_malachite (166
 /// s) and 2.99 from 4.30 on chm_light_blue in 134 s, far from the target
 /// (docs/results/fidelity-2026-12-07-larger-budget.md).
