@@ -51,36 +51,19 @@ fn glossy_target_fit_in(
         (target, 60.0),
         (bins, max_coeffs, max_bytes),
         colour,
-        (fixed, linear),
+        (fixed, linear, NAMED),
     )
 }
+
+/// The coefficient budget of the searches that keep the test's own.
+const NAMED: render_cpu::fidelity::TargetCoefficients =
+    render_cpu::fidelity::TargetCoefficients::Fixed;
 
 /// A target fit of `material` from `grid`'s 3-D grid (bins, coefficients per
-/// function and byte budget), in `colour`, with the reductions and scales
-/// `choices` allows (from linear functions), validated on tiny renders,
-/// within `seconds`; the grid and the coefficient budget are the test's own.
+/// function and byte budget), in `colour`, with the reductions, scales and
+/// coefficient budgets `choices` allows (from linear functions), validated
+/// on tiny renders, within `seconds`; the grid is the test's own.
 fn target_fit(
-    material: std::sync::Arc<dyn brdf::Brdf>,
-    (target, seconds): (f64, f64),
-    grid: ([usize; 3], usize, Option<usize>),
-    colour: (brdf::ColourMode, TargetColour),
-    choices: (
-        render_cpu::fidelity::TargetReduction,
-        render_cpu::fidelity::TargetScale,
-    ),
-) -> Result<render_cpu::fidelity::TargetReport, render_cpu::RenderError> {
-    let coefficients = render_cpu::fidelity::TargetCoefficients::Fixed;
-    target_fit_with(
-        material,
-        (target, seconds),
-        grid,
-        colour,
-        (choices.0, choices.1, coefficients),
-    )
-}
-
-/// [`target_fit`] with the coefficient budget's choice given.
-fn target_fit_with(
     material: std::sync::Arc<dyn brdf::Brdf>,
     (target, seconds): (f64, f64),
     grid: ([usize; 3], usize, Option<usize>),
@@ -363,7 +346,7 @@ fn auto_reduction_report(
         (target, 60.0),
         ([6, 6, 4], 30, None),
         lc,
-        (auto, linear),
+        (auto, linear, NAMED),
     )
     .unwrap()
 }
@@ -379,6 +362,7 @@ fn automatic_scales_fit_the_whole_hemisphere_on_the_log_scale_and_the_cut_linear
     let choices = (
         render_cpu::fidelity::TargetReduction::Fixed,
         render_cpu::fidelity::TargetScale::Auto,
+        NAMED,
     );
     // Unreachable, with a byte budget: the search within the cut runs too.
     let report = target_fit(
@@ -458,6 +442,7 @@ fn a_spent_time_budget_starts_no_search_once_a_fit_is_in_hand() {
     let fixed = (
         render_cpu::fidelity::TargetReduction::Fixed,
         render_cpu::fidelity::TargetScale::Fixed,
+        NAMED,
     );
     let auto_colour = (ColourMode::Rgb, TargetColour::Auto);
     // Unreachable, with a byte budget: with time, the search within a cut
@@ -518,7 +503,7 @@ fn a_missed_target_bounded_by_coefficients_is_searched_with_twice_the_budget() {
     let search = |target: f64, coefficients: TargetCoefficients, max_bytes: Option<usize>| {
         let fixed = render_cpu::fidelity::TargetReduction::Fixed;
         let linear = render_cpu::fidelity::TargetScale::Fixed;
-        target_fit_with(
+        target_fit(
             glossy.clone(),
             (target, 600.0),
             ([6, 6, 4], 8, max_bytes),
