@@ -38,7 +38,7 @@ pub struct FitArgs {
     /// Largest coefficient budget per channel (default 60, and 120 with
     /// `--target-de`, which, unless this is given, doubles it once for the
     /// best search where it rather than `--max-bytes` stopped that search
-    /// short of the target).
+    /// within twice the target).
     #[arg(long, value_parser = crate::args::coefficients)]
     max_coeffs: Option<usize>,
     /// Samples with theta_d above this (degrees, in (0, 90]) are not fitted.

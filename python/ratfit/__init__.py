@@ -164,7 +164,7 @@ def fit_brdf(path: str, format: Optional[str] = None, **options: Any) -> FittedM
             ``lobe`` (an analytic GGX lobe times the rational functions),
             ``max_coeffs`` (default 60, 120 with ``target_de``, which
             doubles it once for its best search where it rather than
-            ``max_bytes`` stopped that search short of the target, unless
+            ``max_bytes`` stopped that search within twice the target, unless
             ``max_coeffs`` is given), ``search`` ("staircase"; "exhaustive" visits every
             split, for the same fits on real materials in several times the
             time), ``target_de`` (the smallest fit whose

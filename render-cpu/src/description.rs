@@ -303,8 +303,8 @@ pub enum MaterialDescription {
         dims: usize,
         /// Largest coefficient budget per channel (default 60; 120 with
         /// `target_de`, as `ratfit fit --target-de`, doubled once by the
-        /// search where it rather than `max_bytes` stops it short of the
-        /// target unless this is given).
+        /// search where it rather than `max_bytes` stops it within twice
+        /// the target, unless this is given).
         #[serde(default, skip_serializing_if = "Option::is_none")]
         max_coeffs: Option<usize>,
         /// Instead of `rel_tol`: the smallest 3-D perceptual fit
