@@ -2,8 +2,9 @@
 //! coefficient budgets, at a single split, or to see the program a split
 //! solves.
 
-use crate::fit::{solve_split, split_problem, sweep, KnownInfeasible, SplitFit};
+use crate::fit::{solve_split, split_problem, SplitFit};
 use crate::problem::{ExtraConstraints, NoExtraConstraints};
+use crate::sweep::{sweep, KnownInfeasible};
 use crate::{FitError, FitReport, FitSettings, IntervalData, NoFitProof, Search};
 use qp_backends::LdpProblem;
 

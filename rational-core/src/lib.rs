@@ -50,6 +50,7 @@ mod rational;
 mod report;
 mod screen;
 mod settings;
+mod sweep;
 pub mod verify;
 
 pub use basis::{
@@ -58,7 +59,7 @@ pub use basis::{
 };
 pub use data::IntervalData;
 pub use error::FitError;
-pub use fit::{fit, SplitFit};
+pub use fit::SplitFit;
 pub use fitter::Fitter;
 pub use poles::PoleControl;
 pub use power::PowerForm;
@@ -71,4 +72,5 @@ pub use qp_backends::{Backend, SolveOptions, Status};
 pub use rational::RationalFunction;
 pub use report::{FitReport, PoleReport, SplitSummary};
 pub use settings::{FitSettings, Progress, ProgressFn, Screen, Search, Selection, PROBE_FRACTIONS};
+pub use sweep::fit;
 pub use verify::{ErrorFigures, Verification};
