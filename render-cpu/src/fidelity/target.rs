@@ -364,24 +364,7 @@ pub fn fit_to_target(
     budget: TargetBudget,
 ) -> Result<(brdf::FittedBrdf, TargetReport), RenderError> {
     let start = Instant::now();
-    if !(target_de > 0.0 && target_de.is_finite()) {
-        return Err(crate::error::invalid(
-            "target_de",
-            format!("{target_de} is not a positive number"),
-        ));
-    }
-    if !(budget.seconds > 0.0 && budget.seconds.is_finite()) {
-        return Err(crate::error::invalid(
-            "time budget",
-            format!("{} is not a positive number of seconds", budget.seconds),
-        ));
-    }
-    if let Some(bytes) = budget.bytes.filter(|&b| b < 8) {
-        return Err(crate::error::invalid(
-            "max_bytes",
-            format!("{bytes} bytes cannot hold a rational function (at least 2 coefficients of 4 bytes)"),
-        ));
-    }
+    check_target(target_de, &budget)?;
     let validator = Validator::new(table.clone(), validation)?;
     let goal = Goal {
         validator: &validator,
@@ -404,29 +387,7 @@ pub fn fit_to_target(
         attempt,
     }) = best
     else {
-        let smallest = tried
-            .iter()
-            .filter_map(|a| a.result.map(|(bytes, _)| bytes))
-            .min();
-        let loosest_tried = tried.iter().map(|a| a.rel_tol).fold(0.0, f64::max);
-        return Err(match (budget.bytes, smallest) {
-            (Some(max), Some(smallest)) => crate::error::invalid(
-                "max_bytes",
-                format!(
-                    "no perceptual fit of {} within {max} bytes, even at +-{}%: the smallest tried has {smallest} bytes",
-                    table.name(),
-                    brdf::scale_text(loosest_tried * 100.0)
-                ),
-            ),
-            _ => crate::error::invalid(
-                "target_de",
-                format!(
-                    "no perceptual fit of {} within the coefficient budget, even at +-{}%",
-                    table.name(),
-                    brdf::scale_text(LOOSER[LOOSER.len() - 1] * 100.0)
-                ),
-            ),
-        });
+        return Err(no_fit_within_budgets(&table.name(), budget.bytes, &tried));
     };
     let reached = errors.worst_mean() <= target_de;
     let grid_floor = if !reached && fitted.reduction.kind == brdf::ReductionKind::Full3d {
@@ -471,6 +432,61 @@ pub fn fit_to_target(
         seconds: start.elapsed().as_secs_f64(),
     };
     Ok((fitted, report))
+}
+
+/// The target and the budgets [`fit_to_target`] accepts.
+fn check_target(target_de: f64, budget: &TargetBudget) -> Result<(), RenderError> {
+    if !(target_de > 0.0 && target_de.is_finite()) {
+        return Err(crate::error::invalid(
+            "target_de",
+            format!("{target_de} is not a positive number"),
+        ));
+    }
+    if !(budget.seconds > 0.0 && budget.seconds.is_finite()) {
+        return Err(crate::error::invalid(
+            "time budget",
+            format!("{} is not a positive number of seconds", budget.seconds),
+        ));
+    }
+    if let Some(bytes) = budget.bytes.filter(|&b| b < 8) {
+        return Err(crate::error::invalid(
+            "max_bytes",
+            format!("{bytes} bytes cannot hold a rational function (at least 2 coefficients of 4 bytes)"),
+        ));
+    }
+    Ok(())
+}
+
+/// The error of a target search that found no fit within the coefficient
+/// budget, or within `max_bytes`, even at the loosest tolerance.
+fn no_fit_within_budgets(
+    name: &str,
+    max_bytes: Option<usize>,
+    tried: &[TargetAttempt],
+) -> RenderError {
+    let smallest = tried
+        .iter()
+        .filter_map(|a| a.result.map(|(bytes, _)| bytes))
+        .min();
+    let loosest_tried = tried.iter().map(|a| a.rel_tol).fold(0.0, f64::max);
+    match (max_bytes, smallest) {
+        (Some(max), Some(smallest)) => crate::error::invalid(
+            "max_bytes",
+            format!(
+                "no perceptual fit of {} within {max} bytes, even at +-{}%: the smallest tried has {smallest} bytes",
+                name,
+                brdf::scale_text(loosest_tried * 100.0)
+            ),
+        ),
+        _ => crate::error::invalid(
+            "target_de",
+            format!(
+                "no perceptual fit of {} within the coefficient budget, even at +-{}%",
+                name,
+                brdf::scale_text(LOOSER[LOOSER.len() - 1] * 100.0)
+            ),
+        ),
+    }
 }
 
 #[cfg(test)]
