@@ -226,33 +226,7 @@ pub fn run_fit(args: FitArgs) -> Result<()> {
 /// The `ratfit fit` output file's content for `args` (the report is
 /// printed on the way); `args.output` is not written.
 pub fn fit_to_json(args: &FitArgs) -> Result<serde_json::Value> {
-    let mut fit_settings = FitSettings::default()
-        .with_coeff_range(
-            2,
-            args.max_coeffs.unwrap_or(if args.target_de.is_some() {
-                render_cpu::fidelity::TARGET_MAX_COEFFS
-            } else {
-                60
-            }),
-        )?
-        .with_backend(args.backend)?
-        .with_pole_control(args.poles)
-        .with_search(args.search.unwrap_or(Search::Staircase))
-        .with_cancel(crate::process::flag());
-    if !args.degree_weights.is_empty() {
-        fit_settings = fit_settings.with_degree_weights(args.degree_weights.clone())?;
-    }
-    if args.max_widenings > 0 {
-        let perceptual = args.perceptual || args.target_de.is_some();
-        let factor = args.widen_factor.unwrap_or(if perceptual {
-            std::f64::consts::SQRT_2
-        } else {
-            2.0
-        });
-        fit_settings = fit_settings
-            .with_widening(factor, args.max_widenings)
-            .with_context(|| format!("--widen-factor {factor}"))?;
-    }
+    let fit_settings = engine_settings(args)?;
     // Every flag is checked whatever the format, even those ALTA data
     // (fitted in the file's own parametrisation) do not use.
     let checked_reduction = reduction(args)?;
@@ -319,27 +293,81 @@ pub fn fit_to_json(args: &FitArgs) -> Result<serde_json::Value> {
     };
     crate::progress::finish();
     let (peak, render) = render.unzip();
-    if args.json {
-        println!("{}", serde_json::to_string_pretty(&report)?);
-    } else {
-        println!("{report}");
-        if let Some((line, _)) = &cut_choice {
-            println!("{line}");
-        }
-        if let (Some(p), Some(r)) = (&peak, &render) {
-            println!("{}", describe_render(r));
-            if let Some(split) = &r.colour_split {
-                println!("{}", split.describe("the fit"));
-            }
-            println!("{p}");
-        }
-    }
+    print_fit_report(
+        args.json,
+        &report,
+        cut_choice.as_ref().map(|(line, _)| line.as_str()),
+        peak.as_ref().zip(render.as_ref()),
+    )?;
     let mut out =
         serde_json::json!({ "brdf": fitted, "report": report, "render": render, "peak": peak });
     if let Some((_, chosen)) = cut_choice {
         out["evaluation_cut"] = chosen;
     }
     Ok(out)
+}
+
+/// The engine's settings from `ratfit fit`'s flags: the coefficient
+/// budget (larger for a target search), backend, poles, search, degree
+/// weights and widening.
+fn engine_settings(args: &FitArgs) -> Result<FitSettings> {
+    let mut fit_settings = FitSettings::default()
+        .with_coeff_range(
+            2,
+            args.max_coeffs.unwrap_or(if args.target_de.is_some() {
+                render_cpu::fidelity::TARGET_MAX_COEFFS
+            } else {
+                60
+            }),
+        )?
+        .with_backend(args.backend)?
+        .with_pole_control(args.poles)
+        .with_search(args.search.unwrap_or(Search::Staircase))
+        .with_cancel(crate::process::flag());
+    if !args.degree_weights.is_empty() {
+        fit_settings = fit_settings.with_degree_weights(args.degree_weights.clone())?;
+    }
+    if args.max_widenings > 0 {
+        let perceptual = args.perceptual || args.target_de.is_some();
+        let factor = args.widen_factor.unwrap_or(if perceptual {
+            std::f64::consts::SQRT_2
+        } else {
+            2.0
+        });
+        fit_settings = fit_settings
+            .with_widening(factor, args.max_widenings)
+            .with_context(|| format!("--widen-factor {factor}"))?;
+    }
+    Ok(fit_settings)
+}
+
+/// Prints a plain fit's report (as JSON with `json`), the evaluation cut
+/// chosen, and the render and peak checks.
+fn print_fit_report(
+    json: bool,
+    report: &brdf::BrdfFitReport,
+    cut_line: Option<&str>,
+    checks: Option<(
+        &brdf::fidelity::FitPeaks,
+        &render_cpu::fidelity::RenderErrors,
+    )>,
+) -> Result<()> {
+    if json {
+        println!("{}", serde_json::to_string_pretty(report)?);
+        return Ok(());
+    }
+    println!("{report}");
+    if let Some(line) = cut_line {
+        println!("{line}");
+    }
+    if let Some((p, r)) = checks {
+        println!("{}", describe_render(r));
+        if let Some(split) = &r.colour_split {
+            println!("{}", split.describe("the fit"));
+        }
+        println!("{p}");
+    }
+    Ok(())
 }
 
 /// The peak check of `ratfit bench fidelity` on a fit, on its grid.
