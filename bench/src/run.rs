@@ -226,35 +226,13 @@ fn run_instance(
                 }
             }
             if let Some(n) = inst.sweep {
-                for &backend in &opts.backends {
-                    for (mode, poles) in [
-                        ("sweep", PoleControl::None),
-                        ("sweep+grid", PoleControl::default()),
-                    ] {
-                        let mut row = Row {
-                            mode: mode.into(),
-                            backend: backend.name().into(),
-                            ..base.clone()
-                        };
-                        if let Some(note) = over_sample_limit(backend, data.len(), file) {
-                            push_skipped(row, note, rows);
-                            continue;
-                        }
-                        let per_split = split_medians.get(&backend).copied();
-                        let predicted = per_split.map(|t| t * (n - 1) as f64);
-                        if predicted.is_none_or(|p| p > budget) {
-                            row.status = "skipped".into();
-                            row.note = match predicted {
-                                Some(p) => format!("predicted {p:.0} s (budget {budget} s)"),
-                                None => "no timed split of this backend at this size".into(),
-                            };
-                        } else {
-                            sweep_row(&mut row, &data, backend, n, poles, budget, max_reps);
-                        }
-                        print_row(&row);
-                        rows.push(row);
-                    }
-                }
+                let limits = CaseLimits {
+                    backends: &opts.backends,
+                    file,
+                    budget,
+                    max_reps,
+                };
+                sweep_rows(n, &data, &base, &split_medians, &limits, rows);
             }
         }
         if inst.aaa {
@@ -274,6 +252,67 @@ fn run_instance(
         }
     }
     Ok(())
+}
+
+/// What the cases of one instance share.
+#[derive(Clone, Copy)]
+struct CaseLimits<'a> {
+    /// The backends to run.
+    backends: &'a [Backend],
+    /// The instance file (its comparison sample limit).
+    file: &'a InstanceFile,
+    /// Seconds per case.
+    budget: f64,
+    /// Repetitions per case.
+    max_reps: usize,
+}
+
+/// The sweep rows of one sample size and tolerance, with and without pole
+/// control, for each backend: skipped when the slowest split's median times
+/// the `n - 1` budgets predicts more than the time budget.
+fn sweep_rows(
+    n: usize,
+    data: &IntervalData,
+    base: &Row,
+    split_medians: &HashMap<Backend, f64>,
+    limits: &CaseLimits,
+    rows: &mut Vec<Row>,
+) {
+    let CaseLimits {
+        backends,
+        file,
+        budget,
+        max_reps,
+    } = *limits;
+    for &backend in backends {
+        for (mode, poles) in [
+            ("sweep", PoleControl::None),
+            ("sweep+grid", PoleControl::default()),
+        ] {
+            let mut row = Row {
+                mode: mode.into(),
+                backend: backend.name().into(),
+                ..base.clone()
+            };
+            if let Some(note) = over_sample_limit(backend, data.len(), file) {
+                push_skipped(row, note, rows);
+                continue;
+            }
+            let per_split = split_medians.get(&backend).copied();
+            let predicted = per_split.map(|t| t * (n - 1) as f64);
+            if predicted.is_none_or(|p| p > budget) {
+                row.status = "skipped".into();
+                row.note = match predicted {
+                    Some(p) => format!("predicted {p:.0} s (budget {budget} s)"),
+                    None => "no timed split of this backend at this size".into(),
+                };
+            } else {
+                sweep_row(&mut row, data, backend, n, poles, budget, max_reps);
+            }
+            print_row(&row);
+            rows.push(row);
+        }
+    }
 }
 
 /// Records a case that was not run, and why.
