@@ -109,35 +109,7 @@ impl GpuRenderer {
                     },
                 ],
             });
-            let size = wgpu::Extent3d {
-                width,
-                height,
-                depth_or_array_layers: 1,
-            };
-            let target = |label: &str, format, usage| {
-                d.create_texture(&wgpu::TextureDescriptor {
-                    label: Some(label),
-                    size,
-                    mip_level_count: 1,
-                    sample_count: 1,
-                    dimension: wgpu::TextureDimension::D2,
-                    format,
-                    usage,
-                    view_formats: &[],
-                })
-            };
-            let color = target(
-                "colour",
-                COLOR,
-                wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
-            );
-            let depth = target("depth", DEPTH, wgpu::TextureUsages::RENDER_ATTACHMENT);
-            let readback = d.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("image readback"),
-                size: padded_row as u64 * height as u64,
-                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-                mapped_at_creation: false,
-            });
+            let (color, depth, readback) = frame_targets(d, width, height, padded_row);
             (pipeline, bind_group, vertices, color, depth, readback)
         })?;
         let (pipeline, bind_group, vertices, color, depth, readback) = built;
@@ -299,6 +271,46 @@ fn globals_words(scene: &GpuScene) -> Vec<u32> {
     let mut globals: Vec<u32> = globals.iter().map(|v| v.to_bits()).collect();
     globals.extend_from_slice(&[scene.lights.len() as u32, 0, 0, 0]);
     globals
+}
+
+/// The colour and depth targets of a `width` x `height` frame, and the
+/// buffer the colour image is copied to (rows padded to `padded_row` bytes).
+fn frame_targets(
+    d: &wgpu::Device,
+    width: u32,
+    height: u32,
+    padded_row: u32,
+) -> (wgpu::Texture, wgpu::Texture, wgpu::Buffer) {
+    let size = wgpu::Extent3d {
+        width,
+        height,
+        depth_or_array_layers: 1,
+    };
+    let target = |label: &str, format, usage| {
+        d.create_texture(&wgpu::TextureDescriptor {
+            label: Some(label),
+            size,
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format,
+            usage,
+            view_formats: &[],
+        })
+    };
+    let color = target(
+        "colour",
+        COLOR,
+        wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+    );
+    let depth = target("depth", DEPTH, wgpu::TextureUsages::RENDER_ATTACHMENT);
+    let readback = d.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("image readback"),
+        size: padded_row as u64 * height as u64,
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    (color, depth, readback)
 }
 
 /// The pipeline: one vertex buffer of [`Vertex`], depth test, no culling,
