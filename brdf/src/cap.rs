@@ -3,7 +3,7 @@
 //! a grid of the whole domain evaluation reaches; where it exceeds its cap
 //! the points are added as `[0, cap]` constraints and the data fitted again.
 
-use crate::fitting::BrdfFitSettings;
+use crate::fit_settings::BrdfFitSettings;
 use crate::geometry::HalfDiff;
 use crate::reduce::{Reduction, HORIZON_INSET_RAD};
 use crate::value_scale::ValueScale;

@@ -32,6 +32,7 @@ mod error;
 pub mod export;
 pub mod fidelity;
 mod fit_report;
+mod fit_settings;
 mod fitted;
 mod fitting;
 mod geometry;
@@ -58,11 +59,9 @@ pub use error::{write_atomic, BrdfError};
 pub use export::alta::{AltaChannel, AltaRational};
 pub use export::{compact, compact_batch, shader};
 pub use fit_report::{scale_text, BrdfFitReport, ChannelReport};
+pub use fit_settings::{BrdfFitSettings, ChannelProgressFn, MAX_CAP_ROUNDS};
 pub use fitted::{FittedBrdf, CEILING_OVER_PEAK};
-pub use fitting::{
-    assemble_channels, fit_brdf, fit_samples, fit_samples_channel, BrdfFitSettings,
-    ChannelProgressFn, MAX_CAP_ROUNDS,
-};
+pub use fitting::{assemble_channels, fit_brdf, fit_samples, fit_samples_channel};
 pub use geometry::{
     clamp_elevation, cross, dot, elevation, fold_phi_d, from_spherical, normalize, rotate,
     to_spherical, HalfDiff, Vec3,
