@@ -3,18 +3,9 @@
 
 mod common;
 
+use common::{ratfit, scratch};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
-
-fn ratfit() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_ratfit"))
-}
-
-fn scratch(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("ratfit-cli-render-{}-{name}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
 
 /// Runs and asserts success; returns stdout and stderr together.
 fn run_ok(cmd: &mut Command) -> String {

@@ -1,6 +1,25 @@
-//! What the binary's test files share.
+//! What the binary's test files share. Each file uses part of it.
+#![allow(dead_code)]
 
 use std::path::PathBuf;
+use std::process::Command;
+
+/// The binary under test.
+pub fn ratfit() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_ratfit"))
+}
+
+/// A fresh scratch folder named after the test file, the process and
+/// `name`.
+pub fn scratch(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!(
+        "ratfit-{}-{}-{name}",
+        env!("CARGO_CRATE_NAME"),
+        std::process::id()
+    ));
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
 
 /// The real data folder, or a path that does not exist (callers skip or
 /// fail as they must).
