@@ -65,64 +65,16 @@ pub(crate) fn verify_with(
     let (n_p, n_q) = r.split();
     let nb = n_p.max(n_q);
     let tol = rounding_tolerance(n_p + n_q);
-    #[derive(Clone, Copy)]
-    struct Acc {
-        ok: bool,
-        viol: f64,
-        worst: usize,
-        min_q: f64,
-        max_q: f64,
-    }
     let acc = (0..data.len())
         .into_par_iter()
         .map_init(
             || vec![0.0; nb],
             |phi, i| {
                 basis_values(i, phi);
-                let (mut p, mut pa, mut q, mut qa) = (0.0, 0.0, 0.0, 0.0);
-                for k in 0..n_p {
-                    p += r.numerator()[k] * phi[k];
-                    pa += (r.numerator()[k] * phi[k]).abs();
-                }
-                for k in 0..n_q {
-                    q += r.denominator()[k] * phi[k];
-                    qa += (r.denominator()[k] * phi[k]).abs();
-                }
-                let (lo, hi) = (data.lo()[i], data.hi()[i]);
-                let slack = tol * (pa + lo.abs().max(hi.abs()) * qa);
-                let ok = q > 0.0 && p - lo * q >= -slack && hi * q - p >= -slack;
-                let v = p / q;
-                let out = if v.is_finite() {
-                    (lo - v).max(v - hi).max(0.0)
-                } else {
-                    f64::INFINITY
-                };
-                let viol = out / lo.abs().max(hi.abs()).max(f64::MIN_POSITIVE);
-                Acc {
-                    ok,
-                    viol,
-                    worst: i,
-                    min_q: q,
-                    max_q: q.abs(),
-                }
+                SampleCheck::of(r, data, i, phi, tol)
             },
         )
-        .reduce(
-            || Acc {
-                ok: true,
-                viol: -1.0,
-                worst: 0,
-                min_q: f64::INFINITY,
-                max_q: 0.0,
-            },
-            |a, b| Acc {
-                ok: a.ok && b.ok,
-                viol: a.viol.max(b.viol),
-                worst: if b.viol > a.viol { b.worst } else { a.worst },
-                min_q: a.min_q.min(b.min_q),
-                max_q: a.max_q.max(b.max_q),
-            },
-        );
+        .reduce(SampleCheck::empty, SampleCheck::merge);
     let c: Vec<f64> = r
         .numerator()
         .iter()
@@ -158,6 +110,74 @@ pub(crate) fn verify_with(
             0.0
         },
         extra_min_margin: extra_min,
+    }
+}
+
+/// The check of one sample (or, merged, of many): the interval rows hold
+/// within the rounding slack and the denominator is positive, the largest
+/// relative distance of the value outside its interval and where, and the
+/// denominator's range.
+#[derive(Clone, Copy)]
+struct SampleCheck {
+    ok: bool,
+    viol: f64,
+    worst: usize,
+    min_q: f64,
+    max_q: f64,
+}
+
+impl SampleCheck {
+    /// Sample `i` of `data`, with the basis values `phi` there.
+    fn of(r: &RationalFunction, data: &IntervalData, i: usize, phi: &[f64], tol: f64) -> Self {
+        let (n_p, n_q) = r.split();
+        let (mut p, mut pa, mut q, mut qa) = (0.0, 0.0, 0.0, 0.0);
+        for k in 0..n_p {
+            p += r.numerator()[k] * phi[k];
+            pa += (r.numerator()[k] * phi[k]).abs();
+        }
+        for k in 0..n_q {
+            q += r.denominator()[k] * phi[k];
+            qa += (r.denominator()[k] * phi[k]).abs();
+        }
+        let (lo, hi) = (data.lo()[i], data.hi()[i]);
+        let slack = tol * (pa + lo.abs().max(hi.abs()) * qa);
+        let ok = q > 0.0 && p - lo * q >= -slack && hi * q - p >= -slack;
+        let v = p / q;
+        let out = if v.is_finite() {
+            (lo - v).max(v - hi).max(0.0)
+        } else {
+            f64::INFINITY
+        };
+        let viol = out / lo.abs().max(hi.abs()).max(f64::MIN_POSITIVE);
+        Self {
+            ok,
+            viol,
+            worst: i,
+            min_q: q,
+            max_q: q.abs(),
+        }
+    }
+
+    /// The check of no sample.
+    fn empty() -> Self {
+        Self {
+            ok: true,
+            viol: -1.0,
+            worst: 0,
+            min_q: f64::INFINITY,
+            max_q: 0.0,
+        }
+    }
+
+    /// The check of both sets of samples (the first worst of equals).
+    fn merge(a: Self, b: Self) -> Self {
+        Self {
+            ok: a.ok && b.ok,
+            viol: a.viol.max(b.viol),
+            worst: if b.viol > a.viol { b.worst } else { a.worst },
+            min_q: a.min_q.min(b.min_q),
+            max_q: a.max_q.max(b.max_q),
+        }
     }
 }
 
