@@ -343,54 +343,9 @@ impl ShellFactor {
         }
         let cells = bins[0] * bins[1];
         let cos_cut = cut_deg.to_radians().cos();
-        let (sub, azimuths) = QUADRATURE;
-        // Midpoints of each cell in the warped `u = sqrt(theta_h / (pi/2))`
-        // and in the `theta_d` spacing's variable, and of `phi_d` over the
-        // circle, so that every cell is integrated, the narrow ones at the
-        // specular direction included. A pair's measure is
-        // `4 cos_d dw_h dw_d`, with `dtheta_h = pi u du` and `sin theta_d
-        // dtheta_d` (uniform) or `d(1 - cos theta_d)` (cosine); the
-        // constants cancel in the ratio.
         let sums: Vec<CellSums> = (0..cells)
             .into_par_iter()
-            .map(|cell| {
-                let (ch, cd) = (cell / bins[1], cell % bins[1]);
-                let mut sums = CellSums::default();
-                for a in 0..sub {
-                    let u = (ch as f64 + (a as f64 + 0.5) / sub as f64) / bins[0] as f64;
-                    let theta_h = u * u * FRAC_PI_2;
-                    for b in 0..sub {
-                        let v = (cd as f64 + (b as f64 + 0.5) / sub as f64) / bins[1] as f64;
-                        let (theta_d, d_measure) = match layout.spacing {
-                            ThetaDSpacing::Uniform => {
-                                let t = v * FRAC_PI_2;
-                                (t, t.sin())
-                            }
-                            ThetaDSpacing::Cosine => ((1.0 - v).acos(), 1.0),
-                        };
-                        for p in 0..azimuths {
-                            let phi_d = (p as f64 + 0.5) / azimuths as f64 * 2.0 * PI;
-                            let (wi, wo) = HalfDiff {
-                                theta_h,
-                                phi_h: 0.0,
-                                theta_d,
-                                phi_d,
-                            }
-                            .to_directions();
-                            if wi[2] <= 0.0
-                                || wo[2] <= 0.0
-                                || (wi[2] >= cos_cut && wo[2] >= cos_cut)
-                            {
-                                continue;
-                            }
-                            let weight =
-                                wi[2] * wo[2] * theta_d.cos() * theta_h.sin() * d_measure * u;
-                            sums.add(weight, table.eval(wi, wo), within.eval(wi, wo));
-                        }
-                    }
-                }
-                sums
-            })
+            .map(|cell| cell_sums(table, within, layout, cell, cos_cut))
             .collect();
         // A non-finite integral would otherwise become a factor of 0, 1 or
         // the largest allowed without a word: name the cell instead.
@@ -531,4 +486,55 @@ impl ShellFactor {
             ColourMode::LuminanceChroma => [k, 1.0, 1.0],
         }
     }
+}
+/// The integrals of the table and of the fit `within` over the pairs of
+/// shell cell `cell` of `layout` beyond the cut (`cos_cut`).
+fn cell_sums(
+    table: &dyn Brdf,
+    within: &crate::FittedBrdf,
+    layout: ShellLayout,
+    cell: usize,
+    cos_cut: f64,
+) -> CellSums {
+    let bins = layout.bins;
+    let (sub, azimuths) = QUADRATURE;
+    // Midpoints of each cell in the warped `u = sqrt(theta_h / (pi/2))`
+    // and in the `theta_d` spacing's variable, and of `phi_d` over the
+    // circle, so that every cell is integrated, the narrow ones at the
+    // specular direction included. A pair's measure is
+    // `4 cos_d dw_h dw_d`, with `dtheta_h = pi u du` and `sin theta_d
+    // dtheta_d` (uniform) or `d(1 - cos theta_d)` (cosine); the
+    // constants cancel in the ratio.
+    let (ch, cd) = (cell / bins[1], cell % bins[1]);
+    let mut sums = CellSums::default();
+    for a in 0..sub {
+        let u = (ch as f64 + (a as f64 + 0.5) / sub as f64) / bins[0] as f64;
+        let theta_h = u * u * FRAC_PI_2;
+        for b in 0..sub {
+            let v = (cd as f64 + (b as f64 + 0.5) / sub as f64) / bins[1] as f64;
+            let (theta_d, d_measure) = match layout.spacing {
+                ThetaDSpacing::Uniform => {
+                    let t = v * FRAC_PI_2;
+                    (t, t.sin())
+                }
+                ThetaDSpacing::Cosine => ((1.0 - v).acos(), 1.0),
+            };
+            for p in 0..azimuths {
+                let phi_d = (p as f64 + 0.5) / azimuths as f64 * 2.0 * PI;
+                let (wi, wo) = HalfDiff {
+                    theta_h,
+                    phi_h: 0.0,
+                    theta_d,
+                    phi_d,
+                }
+                .to_directions();
+                if wi[2] <= 0.0 || wo[2] <= 0.0 || (wi[2] >= cos_cut && wo[2] >= cos_cut) {
+                    continue;
+                }
+                let weight = wi[2] * wo[2] * theta_d.cos() * theta_h.sin() * d_measure * u;
+                sums.add(weight, table.eval(wi, wo), within.eval(wi, wo));
+            }
+        }
+    }
+    sums
 }
