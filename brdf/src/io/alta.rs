@@ -97,38 +97,7 @@ impl AltaData {
                 continue;
             }
             let (n, m) = dim.ok_or_else(|| bad("data before `#DIM`".into()))?;
-            let v = numbers(t).ok_or_else(|| bad(format!("line {}: not numbers", no + 1)))?;
-            let per_out = if vs == 2 { 3 } else { 1 };
-            if v.len() != n + m * per_out {
-                return Err(bad(format!(
-                    "line {}: {} numbers, expected {}",
-                    no + 1,
-                    v.len(),
-                    n + m * per_out
-                )));
-            }
-            if let Some(x) = v.iter().find(|x| !x.is_finite()) {
-                return Err(bad(format!("line {}: non-finite value {x}", no + 1)));
-            }
-            let mut row = v[..n].to_vec();
-            let mut iv = Vec::new();
-            for k in 0..m {
-                row.push(v[n + k * per_out]);
-                if vs == 2 {
-                    let (value, lo, hi) = (
-                        v[n + k * per_out],
-                        v[n + k * per_out + 1],
-                        v[n + k * per_out + 2],
-                    );
-                    if !(lo <= value && value <= hi) {
-                        return Err(bad(format!(
-                            "line {}: output {k} value {value} is outside its own interval [{lo}, {hi}]",
-                            no + 1
-                        )));
-                    }
-                    iv.push((lo, hi));
-                }
-            }
+            let (row, iv) = data_row(t, no + 1, (n, m), vs).map_err(bad)?;
             rows.push(row);
             intervals.push(iv);
         }
@@ -178,4 +147,45 @@ impl AltaData {
                 .map_err(wrap),
         }
     }
+}
+
+/// A data row's inputs and outputs, and each output's interval if the file
+/// gives intervals.
+type DataRow = (Vec<f64>, Vec<(f64, f64)>);
+
+/// The inputs and outputs of the data row `t` (line `line`) of a file of
+/// `n` inputs and `m` outputs, and with `vs == 2` each output's interval;
+/// what is wrong otherwise.
+fn data_row(t: &str, line: usize, (n, m): (usize, usize), vs: usize) -> Result<DataRow, String> {
+    let v = numbers(t).ok_or_else(|| format!("line {line}: not numbers"))?;
+    let per_out = if vs == 2 { 3 } else { 1 };
+    if v.len() != n + m * per_out {
+        return Err(format!(
+            "line {line}: {} numbers, expected {}",
+            v.len(),
+            n + m * per_out
+        ));
+    }
+    if let Some(x) = v.iter().find(|x| !x.is_finite()) {
+        return Err(format!("line {line}: non-finite value {x}"));
+    }
+    let mut row = v[..n].to_vec();
+    let mut iv = Vec::new();
+    for k in 0..m {
+        row.push(v[n + k * per_out]);
+        if vs == 2 {
+            let (value, lo, hi) = (
+                v[n + k * per_out],
+                v[n + k * per_out + 1],
+                v[n + k * per_out + 2],
+            );
+            if !(lo <= value && value <= hi) {
+                return Err(format!(
+                    "line {line}: output {k} value {value} is outside its own interval [{lo}, {hi}]"
+                ));
+            }
+            iv.push((lo, hi));
+        }
+    }
+    Ok((row, iv))
 }
