@@ -162,35 +162,13 @@ pub fn prepare(
         keys: BTreeMap::new(),
         visiting: Vec::new(),
     };
-    let mut materials = Vec::new();
-    for name in &used {
-        let materials::Built {
-            brdf,
-            bytes: brdf_bytes,
-            description,
-            key,
-            closed_form,
-        } = builder.build(name, &mut log)?;
-        let (sampler, sampler_bytes) = build_sampler(
-            name,
-            &brdf,
-            key,
-            integrator.sampler,
-            samples_brdf,
-            &cache,
-            &mut log,
-        )?;
-        materials.push(PreparedMaterial {
-            name: name.clone(),
-            description,
-            brdf,
-            brdf_bytes,
-            sampler,
-            sampler_bytes,
-            closed_form,
-        });
-    }
-
+    let materials = prepare_materials(
+        &mut builder,
+        &used,
+        integrator.sampler,
+        samples_brdf,
+        &mut log,
+    )?;
     let mut objects = Vec::new();
     for o in &desc.objects {
         let shape = build_shape(o, base, origin, &mut log)?;
@@ -235,6 +213,39 @@ pub fn prepare(
         },
         log,
     ))
+}
+
+/// Builds the materials the scene uses, in `used`'s order, each with its
+/// sampler of `kind` (a cosine one where nothing samples the BRDF).
+fn prepare_materials(
+    builder: &mut MaterialBuilder,
+    used: &[String],
+    kind: SamplerKind,
+    samples_brdf: bool,
+    log: &mut PrepareLog,
+) -> Result<Vec<PreparedMaterial>, RenderError> {
+    let mut materials = Vec::new();
+    for name in used {
+        let materials::Built {
+            brdf,
+            bytes: brdf_bytes,
+            description,
+            key,
+            closed_form,
+        } = builder.build(name, log)?;
+        let (sampler, sampler_bytes) =
+            build_sampler(name, &brdf, key, kind, samples_brdf, builder.cache, log)?;
+        materials.push(PreparedMaterial {
+            name: name.clone(),
+            description,
+            brdf,
+            brdf_bytes,
+            sampler,
+            sampler_bytes,
+            closed_form,
+        });
+    }
+    Ok(materials)
 }
 
 /// Puts material `to` on every object that uses `from`, for each swap.
