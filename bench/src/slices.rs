@@ -17,15 +17,18 @@ pub fn theta_d_deg(fitted: &brdf::FittedBrdf) -> Vec<f64> {
         .collect()
 }
 
-/// Draws `channel` of `data` (dots) and `fit` (lines) against theta_h for
-/// each theta_d in `theta_d_deg`, on the slice phi_d = pi/2.
-pub fn draw(
+/// Values against `theta_h` (radians) on the slice `phi_d = pi/2`, `None`
+/// where a direction is below the horizon or the value is not positive.
+type Curve = Vec<(f64, Option<f64>)>;
+
+/// `channel` of `data` and of `fit` on 401 values of `theta_h`, denser
+/// towards the specular peak, for each theta_d of `theta_d_deg`.
+fn slice_curves(
     data: &dyn Brdf,
     fit: &dyn Brdf,
     channel: usize,
     theta_d_deg: &[f64],
-    path: &Path,
-) -> Result<()> {
+) -> Vec<(Curve, Curve)> {
     let value = |b: &dyn Brdf, th: f64, td: f64| {
         let (wi, wo) = HalfDiff {
             theta_h: th,
@@ -45,14 +48,27 @@ pub fn draw(
     let mut curves = Vec::new();
     for &td in theta_d_deg {
         let td = td.to_radians();
-        let d: Vec<(f64, Option<f64>)> = (0..=n)
+        let d: Curve = (0..=n)
             .map(|i| (theta(i), value(data, theta(i), td)))
             .collect();
-        let f: Vec<(f64, Option<f64>)> = (0..=n)
+        let f: Curve = (0..=n)
             .map(|i| (theta(i), value(fit, theta(i), td)))
             .collect();
         curves.push((d, f));
     }
+    curves
+}
+
+/// Draws `channel` of `data` (dots) and `fit` (lines) against theta_h for
+/// each theta_d in `theta_d_deg`, on the slice phi_d = pi/2.
+pub fn draw(
+    data: &dyn Brdf,
+    fit: &dyn Brdf,
+    channel: usize,
+    theta_d_deg: &[f64],
+    path: &Path,
+) -> Result<()> {
+    let curves = slice_curves(data, fit, channel, theta_d_deg);
     let all = curves
         .iter()
         .flat_map(|(d, f)| d.iter().chain(f.iter()).filter_map(|p| p.1));
