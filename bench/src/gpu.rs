@@ -204,24 +204,7 @@ mod imp {
             .map(|(wi, wo)| compact.eval(*wi, *wo))
             .collect();
         let cpu_eval_s = t.elapsed().as_secs_f64();
-        let peak = cpu_values
-            .iter()
-            .flatten()
-            .fold(0.0f32, |m, v| m.max(v.abs()));
-        let kernel_worst = values
-            .iter()
-            .zip(&cpu_values)
-            .flat_map(|(g, c)| (0..3).map(move |k| (g[k], c[k])))
-            .map(|(g, c)| {
-                let e = ((g - c).abs() / agreement_tolerance(c, peak)) as f64;
-                // A non-finite GPU value is the worst disagreement.
-                if e.is_finite() {
-                    e
-                } else {
-                    f64::INFINITY
-                }
-            })
-            .fold(0.0, f64::max);
+        let kernel_worst = kernel_disagreement(&values, &cpu_values);
 
         let (mut cpu_frame_s, mut table_frame_s) = (f64::NAN, f64::NAN);
         let (mut de_vs_cpu, mut de_max_vs_cpu, mut de_vs_table) = (f64::NAN, f64::NAN, f64::NAN);
@@ -261,6 +244,30 @@ mod imp {
             de_vs_table,
         };
         Ok((row, image, scene.exposure))
+    }
+
+    /// The largest disagreement between the GPU kernel's values and the
+    /// CPU f32 path's, in units of their agreement tolerance (infinite for
+    /// a non-finite GPU value).
+    fn kernel_disagreement(values: &[[f32; 3]], cpu_values: &[[f32; 3]]) -> f64 {
+        let peak = cpu_values
+            .iter()
+            .flatten()
+            .fold(0.0f32, |m, v| m.max(v.abs()));
+        values
+            .iter()
+            .zip(cpu_values)
+            .flat_map(|(g, c)| (0..3).map(move |k| (g[k], c[k])))
+            .map(|(g, c)| {
+                let e = ((g - c).abs() / agreement_tolerance(c, peak)) as f64;
+                // A non-finite GPU value is the worst disagreement.
+                if e.is_finite() {
+                    e
+                } else {
+                    f64::INFINITY
+                }
+            })
+            .fold(0.0, f64::max)
     }
 
     /// `frame_time.svg/.png`: frame time against coefficients, error
