@@ -11,6 +11,8 @@ use rayon::prelude::*;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
 
+/// The sweep's largest budget: the settings' `max_coeffs`, at most one
+/// coefficient per sample; too few samples for `min_coeffs` is an error.
 fn check_sizes(data: &IntervalData, settings: &FitSettings) -> Result<usize, FitError> {
     if data.len() < settings.min_coeffs {
         return Err(FitError::TooFewSamples {
