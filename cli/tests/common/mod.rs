@@ -1,5 +1,4 @@
-//! What the binary's test files share. Each file uses part of it.
-#![allow(dead_code)]
+//! What the binary's test files share.
 
 use std::path::PathBuf;
 use std::process::Command;
