@@ -50,6 +50,10 @@ pub struct ChannelReport {
     /// `FitSettings::with_widening`).
     #[serde(default = "unit_scale")]
     pub interval_scale: f64,
+    /// The function is its split's least-squares fit within the intervals,
+    /// not the largest-margin point (`FitSettings::with_centred_fit`).
+    #[serde(default)]
+    pub centred: bool,
     /// What the perceptual design used (when in use).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub bounds: Option<ChannelBounds>,
@@ -206,6 +210,18 @@ impl fmt::Display for BrdfFitReport {
                 c.rmse,
                 c.cos_rmse,
                 c.seconds
+            )?;
+        }
+        let centred: String = self
+            .channels
+            .iter()
+            .filter(|c| c.centred)
+            .map(|c| c.channel)
+            .collect();
+        if !centred.is_empty() {
+            writeln!(
+                f,
+                "  least squares within the intervals (not the largest margin): {centred}"
             )?;
         }
         for c in self.channels.iter().filter(|c| c.interval_scale > 1.0) {

@@ -541,6 +541,7 @@ fn fit_channel(
         cos_rmse: errors.cos_rmse,
         seconds: report.seconds,
         interval_scale: report.interval_scale,
+        centred: report.centred,
         bounds,
         cap: cap_check,
         // The baselines divide by the value: plain relative intervals only

@@ -77,6 +77,13 @@ pub struct FitArgs {
     /// names the factor used); 0 asks for the exact intervals or no fit.
     #[arg(long, default_value_t = 6)]
     max_widenings: usize,
+    /// Return each function's least-squares fit within its intervals (each
+    /// residual in units of its half-width, every constraint kept with a
+    /// fifth of the largest margin) instead of the point of largest
+    /// margin, whose error swings from bound to bound like a minimax
+    /// fit's. Always on with `--target-de`.
+    #[arg(long)]
+    centred: bool,
     /// The factor of each widening (above 1). Default: 2 for plain
     /// intervals; sqrt 2 with `--perceptual` and `--target-de`, whose
     /// intervals are what the renders show, so the fit stays nearer them
@@ -323,6 +330,7 @@ fn engine_settings(args: &FitArgs) -> Result<FitSettings> {
         .with_backend(args.backend)?
         .with_pole_control(args.poles)
         .with_search(args.search.unwrap_or(Search::Staircase))
+        .with_centred_fit(args.centred)
         .with_cancel(crate::process::flag());
     if !args.degree_weights.is_empty() {
         fit_settings = fit_settings.with_degree_weights(args.degree_weights.clone())?;

@@ -188,6 +188,11 @@ struct FitArgs {
     /// unit of degree in the second coordinate costs twice as much).
     #[arg(long, value_delimiter = ',')]
     degree_weights: Vec<u16>,
+    /// Return the chosen split's least-squares fit within the intervals
+    /// (residuals in half-widths, every constraint kept with a fifth of
+    /// the largest margin) instead of its point of largest margin.
+    #[arg(long)]
+    centred: bool,
 }
 
 impl FitArgs {
@@ -199,6 +204,7 @@ impl FitArgs {
             .with_selection(self.selection)
             .with_search(self.search)
             .with_pole_control(self.poles)
+            .with_centred_fit(self.centred)
             .with_cancel(process::flag());
         if self.max_widenings > 0 {
             s = s.with_widening(self.widen, self.max_widenings)?;

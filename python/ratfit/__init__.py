@@ -62,6 +62,7 @@ BRDF_OPTIONS = (
     "max_bytes",
     "degree_weights",
     "perceptual",
+    "centred",
     "cap_rounds",
     "colour",
     "values",
@@ -152,7 +153,9 @@ def fit_brdf(path: str, format: Optional[str] = None, **options: Any) -> FittedM
         **options: the flags of ``ratfit fit`` (see :data:`BRDF_OPTIONS`),
             with its defaults: ``dims`` (2 or 3), ``resolution``
             (theta_h, theta_d[, phi_d] bins), ``rel_tol`` (0.05),
-            ``perceptual``, ``max_elevation`` (degrees; default 70 for fits
+            ``perceptual``, ``centred`` (each function the least-squares
+            fit within its intervals rather than the point of largest
+            margin; always so with ``target_de``), ``max_elevation`` (degrees; default 70 for fits
             at fixed intervals; perceptual and ``target_de`` fits cover the
             whole hemisphere unless it is given, then fit only the cells
             within it and evaluate beyond it at the cut),

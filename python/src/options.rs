@@ -94,6 +94,9 @@ pub(crate) struct BrdfOptions {
     pub max_bytes: Option<usize>,
     pub degree_weights: Vec<u16>,
     pub perceptual: bool,
+    /// Each function the least-squares fit within its intervals
+    /// (`FitSettings::with_centred_fit`; always so with `target_de`).
+    pub centred: bool,
     pub cap_rounds: usize,
     pub colour: Option<String>,
     /// `"linear"` or `"log"` ([`brdf::ValueScale`]).
@@ -126,6 +129,7 @@ impl Default for BrdfOptions {
             max_bytes: None,
             degree_weights: Vec::new(),
             perceptual: false,
+            centred: false,
             cap_rounds: 2,
             colour: None,
             values: None,
@@ -139,7 +143,7 @@ impl Default for BrdfOptions {
 /// The option names, for the error that refuses another.
 const OPTION_NAMES: &str = "format, dims, spread, coords, rel_tol, noise_floor, max_coeffs, \
      max_theta_d, max_elevation, resolution, backend, poles, search, max_widenings, target_de, \
-     time_budget, max_bytes, degree_weights, perceptual, cap_rounds, colour, values, phi, lobe, render_check";
+     time_budget, max_bytes, degree_weights, perceptual, centred, cap_rounds, colour, values, phi, lobe, render_check";
 
 fn bad(name: &str, reason: impl std::fmt::Display) -> PyErr {
     PyValueError::new_err(format!("option `{name}`: {reason}"))
@@ -233,6 +237,7 @@ impl BrdfOptions {
                 }
                 "degree_weights" => o.degree_weights = get(n, &v)?,
                 "perceptual" => o.perceptual = get(n, &v)?,
+                "centred" => o.centred = get(n, &v)?,
                 "cap_rounds" => {
                     o.cap_rounds = get(n, &v)?;
                     if o.cap_rounds > brdf::MAX_CAP_ROUNDS {
@@ -311,7 +316,8 @@ impl BrdfOptions {
         let mut s = with(FitSettings::default().with_coeff_range(2, max))?;
         s = with(s.with_backend(backend))?
             .with_pole_control(poles)
-            .with_search(search);
+            .with_search(search)
+            .with_centred_fit(self.centred);
         if !self.degree_weights.is_empty() {
             s = with(s.with_degree_weights(self.degree_weights.clone()))?;
         }

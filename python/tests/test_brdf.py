@@ -132,6 +132,14 @@ def test_phi_d_as_its_cosine_is_recorded_and_round_trips(military_green):
     assert np.array_equal(back.eval(wi, wo), cos.eval(wi, wo))
 
 
+def test_a_centred_fit_says_so_and_stays_verified(military_green):
+    centred = ratfit.fit_brdf(military_green, centred=True, render_check=False, **SMALL)
+    channels = centred.report["report"]["channels"]
+    assert all(c["verified"] and c["centred"] for c in channels)
+    plain = ratfit.fit_brdf(military_green, render_check=False, **SMALL)
+    assert not any(c["centred"] for c in plain.report["report"]["channels"])
+
+
 @pytest.mark.parametrize(
     "options, message",
     [
@@ -148,6 +156,7 @@ def test_phi_d_as_its_cosine_is_recorded_and_round_trips(military_green):
         (dict(max_bytes=1024), "max_bytes"),
         (dict(perceptual=True, cap_rounds=17), "cap_rounds"),
         (dict(format="obj"), "format"),
+        (dict(centred="yes"), "centred"),
     ],
 )
 def test_bad_options_raise_value_error(military_green, options, message):

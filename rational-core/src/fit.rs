@@ -31,11 +31,22 @@ pub struct SplitFit {
     pub verification: Option<Verification>,
     /// Pole figures of the accepted function.
     pub poles: PoleReport,
+    /// The accepted largest-margin point, kept for centring once the sweep
+    /// has chosen ([`FitSettings::with_centred_fit`]).
+    pub(crate) margin_point: Option<MarginPoint>,
+}
+
+/// A split's accepted solution of P(n_p, n_q) and the rows of that
+/// program (pole rows included).
+#[derive(Debug, Clone)]
+pub(crate) struct MarginPoint {
+    pub(crate) x: Vec<f64>,
+    pub(crate) rows: Vec<Vec<f64>>,
 }
 
 /// Everything the splits of a sweep share.
 pub(crate) struct Prepared<'a> {
-    basis: Basis,
+    pub(crate) basis: Basis,
     /// Basis values at the samples, as many functions as the widest split
     /// so far needed (grown by doubling): a search whose answer is small
     /// never evaluates, nor stores, the whole basis. The settings' shared
@@ -48,7 +59,7 @@ pub(crate) struct Prepared<'a> {
     pub(crate) settings: &'a FitSettings,
     extra: &'a dyn ExtraConstraints,
     /// Bounds are divided by this in P(n_p, n_q); the numerator is scaled back.
-    scale: f64,
+    pub(crate) scale: f64,
     /// Splits started, reported when the sweep is cancelled.
     pub(crate) solved: AtomicUsize,
     /// Stopped by [`FitSettings::with_existence_only`]'s flag.
@@ -136,7 +147,7 @@ impl<'a> Prepared<'a> {
     }
 
     /// The design matrix with at least `width` functions (a shared handle).
-    fn design_of_width(&self, width: usize) -> Result<DesignMatrix, FitError> {
+    pub(crate) fn design_of_width(&self, width: usize) -> Result<DesignMatrix, FitError> {
         let width = width.max(INITIAL_DESIGN_WIDTH).min(self.basis.len());
         if let Some(shared) = &self.shared {
             if let Some(design) = shared.of_width(&self.basis, self.data, width)? {
@@ -152,7 +163,7 @@ impl<'a> Prepared<'a> {
     /// [`verify`] of a candidate on the prepared points, with the basis
     /// values read from the design matrix (the same numbers, not evaluated
     /// again).
-    fn verify(
+    pub(crate) fn verify(
         &self,
         f: &RationalFunction,
         data: &IntervalData,
@@ -167,7 +178,7 @@ impl<'a> Prepared<'a> {
 
     /// The rational function of a solution vector `(a, b)` (numerator
     /// rescaled from the value-scaled problem), unit-normalised.
-    fn candidate(
+    pub(crate) fn candidate(
         &self,
         split_basis: &Basis,
         x: &[f64],
@@ -258,10 +269,12 @@ impl<'a> Prepared<'a> {
                 function: None,
                 verification: None,
                 poles,
+                margin_point: None,
             });
         }
         // Each exit of the loop names the outcome; the timing and the result
         // are assembled once below.
+        let mut margin_point = None;
         let (function, verification) = loop {
             let problem = self.problem(data, n_p, n_q, &rows)?;
             let sol = self.solve_program(&problem, warm, data, active)?;
@@ -303,6 +316,12 @@ impl<'a> Prepared<'a> {
                 }
                 _ => {}
             }
+            if self.settings.centred {
+                margin_point = Some(MarginPoint {
+                    x: sol.x.clone(),
+                    rows: rows.clone(),
+                });
+            }
             summary.accepted = true;
             self.accepted_one.store(true, Ordering::Relaxed);
             if want_condition {
@@ -321,6 +340,7 @@ impl<'a> Prepared<'a> {
             function,
             verification,
             poles,
+            margin_point,
         })
     }
 
@@ -467,7 +487,7 @@ impl<'a> Prepared<'a> {
     /// The refinement of a verified candidate: the pole check first, then
     /// the caller's [`ExtraConstraints::refine`]; each accepts, refuses or
     /// adds rows for another solve of the split (counted in `summary`).
-    fn refine(
+    pub(crate) fn refine(
         &self,
         f: &RationalFunction,
         ver: &Verification,
@@ -590,7 +610,8 @@ pub(crate) fn solve_split(
         });
     }
     let prep = Prepared::new(data, settings, extra, n_p.max(n_q))?;
-    prep.solve(data, n_p, n_q, true, &mut Vec::new())
+    let fit = prep.solve(data, n_p, n_q, true, &mut Vec::new())?;
+    prep.centre(fit, data)
 }
 
 /// [`crate::Fitter::problem`].

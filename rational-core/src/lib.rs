@@ -38,6 +38,7 @@
 pub struct ReadmeExample;
 
 mod basis;
+mod centre;
 mod data;
 mod error;
 mod fit;

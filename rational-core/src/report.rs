@@ -38,6 +38,11 @@ pub struct SplitSummary {
     /// Interval widenings in force when it was solved (the sweep's count).
     #[serde(default)]
     pub widenings: usize,
+    /// The accepted function is the split's least-squares fit within its
+    /// intervals ([`crate::FitSettings::with_centred_fit`]), not its point
+    /// of largest margin (whose depth `depth` still is).
+    #[serde(default)]
+    pub centred: bool,
 }
 
 impl SplitSummary {
@@ -56,6 +61,7 @@ impl SplitSummary {
             pole_rounds: 0,
             refine_rounds: 0,
             widenings: 0,
+            centred: false,
         }
     }
 
@@ -114,6 +120,11 @@ pub struct FitReport {
     /// How the splits were visited.
     #[serde(default)]
     pub search: Search,
+    /// The function is the chosen split's least-squares fit within its
+    /// intervals, not its point of largest margin
+    /// ([`crate::FitSettings::with_centred_fit`]).
+    #[serde(default)]
+    pub centred: bool,
     /// Every split solved, in order.
     pub splits: Vec<SplitSummary>,
 }
@@ -158,6 +169,12 @@ impl fmt::Display for FitReport {
             v.min_q_ratio
         )?;
         writeln!(f, "  depth               {:.3e}", self.depth)?;
+        if self.centred {
+            writeln!(
+                f,
+                "  point               least squares within the intervals (the depth is the largest margin's)"
+            )?;
+        }
         match self.condition_number {
             Some(k) => writeln!(f, "  condition number    {k:.3e}")?,
             None => writeln!(f, "  condition number    not computed (selection by depth)")?,

@@ -185,6 +185,17 @@ impl Sweep<'_, '_> {
                 prep.condition_numbers(&current, &mut candidates, &mut summaries[first..])?;
             }
             if let Some(best) = select(candidates, settings.selection) {
+                let best = prep.centre(best, &current)?;
+                if best.summary.centred {
+                    let split = (best.summary.n_p, best.summary.n_q);
+                    if let Some(s) = summaries[first..]
+                        .iter_mut()
+                        .rev()
+                        .find(|s| s.accepted && (s.n_p, s.n_q) == split)
+                    {
+                        s.centred = true;
+                    }
+                }
                 let function = best.function.expect("accepted splits carry a function");
                 let errors = error_figures(&function, &current);
                 return Ok(FitReport {
@@ -203,6 +214,7 @@ impl Sweep<'_, '_> {
                     backend: settings.backend.name().to_string(),
                     selection: settings.selection,
                     search: settings.search,
+                    centred: best.summary.centred,
                     splits: std::mem::take(summaries),
                     function,
                 });

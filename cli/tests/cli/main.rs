@@ -68,6 +68,46 @@ fn fit_then_eval_reproduces_the_data_within_the_bound() {
     std::fs::remove_dir_all(dir).ok();
 }
 
+/// The standard output of a run that must succeed (its standard error
+/// is the failure message otherwise).
+fn stdout_of_success(out: std::process::Output) -> String {
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
+/// `--centred` returns the least-squares point within the intervals, says
+/// so, and is verified like the largest-margin point.
+#[test]
+fn fit_csv_centred_says_so_and_stays_verified() {
+    let dir = scratch("centred");
+    let data = runge_csv(&dir);
+    let fit = dir.join("fit.json");
+    let run = |extra: &[&str]| {
+        let out = ratfit()
+            .arg("fit-csv")
+            .arg(&data)
+            .args(["--rel-tol", "0.01", "--max-coeffs", "12", "-o"])
+            .arg(&fit)
+            .args(extra)
+            .output()
+            .unwrap();
+        stdout_of_success(out)
+    };
+    let centred = run(&["--centred"]);
+    assert!(centred.contains("verified            yes"), "{centred}");
+    assert!(
+        centred.contains("least squares within the intervals"),
+        "{centred}"
+    );
+    let plain = run(&[]);
+    assert!(!plain.contains("least squares within"), "{plain}");
+    std::fs::remove_dir_all(dir).ok();
+}
+
 #[test]
 fn dump_qp_writes_npy_files() {
     let dir = scratch("dump");
