@@ -21,14 +21,19 @@ impl Brdf for Skewed {
     }
 }
 
-#[test]
-fn azimuth_intervals_are_reciprocal_though_the_table_is_not() {
+/// [`Skewed`]'s table at 6 views and 30 x 24 cells, small enough for a test.
+fn skewed_table() -> CdfTable {
     let settings = TableSettings::default()
         .with_views(6)
         .unwrap()
         .with_cells(30, 24)
         .unwrap();
-    let table = CdfTable::new(&Skewed, settings).unwrap();
+    CdfTable::new(&Skewed, settings).unwrap()
+}
+
+#[test]
+fn azimuth_intervals_are_reciprocal_though_the_table_is_not() {
+    let table = skewed_table();
     let (a, b) = (table.view(1), table.view(4));
     let mut table_differs = false;
     for q in 1..8 {
@@ -49,12 +54,7 @@ fn azimuth_intervals_are_reciprocal_though_the_table_is_not() {
 /// is recorded for the error), a fitted monotone one is accepted.
 #[test]
 fn non_monotone_candidates_get_rows_then_a_refusal() {
-    let settings = TableSettings::default()
-        .with_views(6)
-        .unwrap()
-        .with_cells(30, 24)
-        .unwrap();
-    let table = CdfTable::new(&Skewed, settings).unwrap();
+    let table = skewed_table();
     let s = CdfFitSettings::default();
     let c = Component::Theta;
     let checks = check_points(&table, c, &s);
