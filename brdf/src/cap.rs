@@ -284,6 +284,48 @@ fn refit(
     result
 }
 
+/// Channel `c`'s cap at a point: `cap`, divided by the lobe with one.
+fn cap_at(s: &BrdfFitSettings, c: usize, cap: f64) -> impl Fn(&[f64]) -> f64 + '_ {
+    let reduction = *s.reduction();
+    move |x: &[f64]| match s.lobe() {
+        Some(lobe) => cap / lobe.factors_at(reduction.angles(x), s.colour_mode())[c],
+        None => cap,
+    }
+}
+
+/// The largest-margin point of `report`'s split, where it was centred
+/// (`FitReport::largest_margin`), unless it passes the cap check `check`
+/// (if any) worse than the returned function did.
+pub(crate) fn largest_margin_as_capped(
+    report: &FitReport,
+    data: &IntervalData,
+    s: &BrdfFitSettings,
+    c: usize,
+    check: Option<&CapCheck>,
+) -> Option<RationalFunction> {
+    let f = &report.largest_margin.as_ref()?.function;
+    check
+        .is_none_or(|check| as_capped_as(f, data, s, c, check))
+        .then(|| f.clone())
+}
+
+/// Whether `f`, another function for channel `c` of `data`, passes the
+/// cap check on its grid at least as well as the function `check` judged:
+/// nowhere above the cap, or above it by no more and at no more poles.
+fn as_capped_as(
+    f: &RationalFunction,
+    data: &IntervalData,
+    s: &BrdfFitSettings,
+    c: usize,
+    check: &CapCheck,
+) -> bool {
+    let grid = cap_grid(data, s.reduction());
+    let value_scale = s.value_scale().of(s.colour_mode(), c);
+    let scan = points_above_cap(&grid, f, value_scale, &cap_at(s, c, check.cap));
+    scan.non_finite == 0 && scan.caps.is_empty()
+        || scan.non_finite <= check.non_finite && scan.largest <= check.largest
+}
+
 /// The dense cap check ([`BrdfFitSettings::with_cap_rounds`]): between the
 /// samples nothing bounds `p / q`, so the fit is evaluated on a grid of its
 /// whole evaluation domain twice as dense as the data; the points above
@@ -300,11 +342,7 @@ pub(crate) fn hold_below_cap(
     c: usize,
     cap: f64,
 ) -> Result<(FitReport, CapCheck), FitError> {
-    let reduction = *s.reduction();
-    let cap_at = |x: &[f64]| match s.lobe() {
-        Some(lobe) => cap / lobe.factors_at(reduction.angles(x), s.colour_mode())[c],
-        None => cap,
-    };
+    let cap_at = cap_at(s, c, cap);
     let started = std::time::Instant::now();
     let first_fit_s = report.seconds;
     let grid = cap_grid(data, s.reduction());

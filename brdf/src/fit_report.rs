@@ -6,6 +6,7 @@ use crate::design::{ChannelBounds, PerceptualBounds};
 use crate::lobe::Lobe;
 use crate::reduce::Reduction;
 use crate::value_scale::ValueScale;
+use rational_core::RationalFunction;
 use serde::{Deserialize, Serialize};
 use std::fmt;
 
@@ -54,6 +55,12 @@ pub struct ChannelReport {
     /// not the largest-margin point (`FitSettings::with_centred_fit`).
     #[serde(default)]
     pub centred: bool,
+    /// When centred, the same split at its point of largest margin
+    /// (verified, and as far within the cap check as the returned
+    /// function), for [`crate::FittedBrdf::at_largest_margin`]. Not
+    /// written: a report read back has none.
+    #[serde(skip)]
+    pub largest_margin: Option<RationalFunction>,
     /// What the perceptual design used (when in use).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub bounds: Option<ChannelBounds>,

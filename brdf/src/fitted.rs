@@ -7,6 +7,7 @@ use crate::lobe::Lobe;
 use crate::reduce::Reduction;
 use crate::shell::ShellFactor;
 use crate::value_scale::ValueScale;
+use crate::BrdfFitReport;
 use crate::{Brdf, BrdfError};
 use rational_core::RationalFunction;
 use rayon::prelude::*;
@@ -304,5 +305,31 @@ impl Brdf for FittedBrdf {
 
     fn name(&self) -> String {
         format!("rational fit of {}", self.name)
+    }
+}
+
+impl FittedBrdf {
+    /// This fit, as [`crate::fit_samples`] returned it with `report`, with every
+    /// centred function at its split's point of largest margin
+    /// ([`crate::ChannelReport::largest_margin`]; the others as they are): the
+    /// same bytes and intervals, for a caller that chooses between the two
+    /// by what the intervals do not see (its renders). `None` when no
+    /// function has one.
+    pub fn at_largest_margin(&self, report: &BrdfFitReport) -> Option<FittedBrdf> {
+        if report.channels.len() != self.channels.len()
+            || report.channels.iter().all(|c| c.largest_margin.is_none())
+        {
+            return None;
+        }
+        let channels = self
+            .channels
+            .iter()
+            .zip(&report.channels)
+            .map(|(f, c)| c.largest_margin.clone().unwrap_or_else(|| f.clone()))
+            .collect();
+        Some(FittedBrdf {
+            channels,
+            ..self.clone()
+        })
     }
 }

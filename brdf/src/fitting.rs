@@ -468,6 +468,26 @@ fn on_scale(
     })
 }
 
+/// The engine of channel `c`: the settings' own, with the channel's
+/// progress callback and the design the channels share, if any.
+fn channel_engine(
+    s: &BrdfFitSettings,
+    c: usize,
+    design: Option<&SharedDesign>,
+) -> rational_core::FitSettings {
+    let engine = match &s.channel_progress {
+        Some(ChannelProgress(cb)) => {
+            let cb = cb.clone();
+            s.fit.clone().with_progress(Arc::new(move |p| cb(c, p)))
+        }
+        None => s.fit.clone(),
+    };
+    match design {
+        Some(d) => engine.with_shared_design(d.clone()),
+        None => engine,
+    }
+}
+
 fn fit_channel(
     samples: &Samples,
     c: usize,
@@ -501,17 +521,7 @@ fn fit_channel(
     // On the log scale the function fits the logarithms of the intervals.
     let scale = s.scale.of(s.mode, c);
     let data = on_scale(scale, &data, channel)?;
-    let engine = match &s.channel_progress {
-        Some(ChannelProgress(cb)) => {
-            let cb = cb.clone();
-            s.fit.clone().with_progress(Arc::new(move |p| cb(c, p)))
-        }
-        None => s.fit.clone(),
-    };
-    let engine = match design {
-        Some(d) => engine.with_shared_design(d.clone()),
-        None => engine,
-    };
+    let engine = channel_engine(s, c, design);
     let report = sweep_sharing_proofs(&data, &engine, s.no_fit.as_ref()).map_err(fit_err)?;
     let (report, cap_check) = if cap > 0.0 && cap.is_finite() {
         let (r, k) = hold_below_cap(report, &data, s, c, cap).map_err(fit_err)?;
@@ -519,6 +529,8 @@ fn fit_channel(
     } else {
         (report, None)
     };
+    let largest_margin =
+        crate::cap::largest_margin_as_capped(&report, &data, s, c, cap_check.as_ref());
     let f = report.function.clone();
     let errors = SampleErrors::of(samples, c, &used, rel_tol, &measured_lo, |k| {
         scale.value(f.eval(data.point(k))) * factors[k]
@@ -542,6 +554,7 @@ fn fit_channel(
         seconds: report.seconds,
         interval_scale: report.interval_scale,
         centred: report.centred,
+        largest_margin,
         bounds,
         cap: cap_check,
         // The baselines divide by the value: plain relative intervals only

@@ -13,13 +13,18 @@ fn settings(r: Reduction) -> BrdfFitSettings {
         .unwrap()
 }
 
-#[test]
-fn two_d_fit_is_verified_reciprocal_and_round_trips() {
-    let m = CookTorranceGgx {
+/// A blue GGX material, rough enough for small fits.
+fn blue_ggx() -> CookTorranceGgx {
+    CookTorranceGgx {
         kd: [0.05, 0.1, 0.3],
         f0: [0.04; 3],
         alpha: 0.2,
-    };
+    }
+}
+
+#[test]
+fn two_d_fit_is_verified_reciprocal_and_round_trips() {
+    let m = blue_ggx();
     let (fitted, report) =
         fit_brdf(&m, &settings(Reduction::default().with_resolution(40, 40))).unwrap();
     for c in &report.channels {
@@ -116,11 +121,7 @@ fn bad_settings_are_refused() {
 
 #[test]
 fn channels_fitted_apart_assemble_into_the_joint_fit() {
-    let m = CookTorranceGgx {
-        kd: [0.05, 0.1, 0.3],
-        f0: [0.04; 3],
-        alpha: 0.2,
-    };
+    let m = blue_ggx();
     let s = settings(Reduction::default().with_resolution(24, 24))
         .with_colour_mode(brdf::ColourMode::LuminanceChroma);
     let samples = s.reduction().sample(&m);
@@ -262,11 +263,7 @@ fn proofs_of_no_fit_kept_between_fits_save_solves_and_change_no_fit() {
 
 #[test]
 fn the_functions_that_carry_light_get_the_floor_that_follows_the_tolerance() {
-    let m = CookTorranceGgx {
-        kd: [0.05, 0.1, 0.3],
-        f0: [0.04; 3],
-        alpha: 0.2,
-    };
+    let m = blue_ggx();
     let design = brdf::PerceptualBounds::default()
         .with_rel_tol(0.08)
         .unwrap();
@@ -494,4 +491,22 @@ fn a_log_scale_interval_with_no_positive_value_names_its_function_and_sample() {
         "{e}"
     );
     assert!(e.contains("holds no positive value"), "{e}");
+}
+
+#[test]
+fn a_centred_fit_at_its_largest_margin_points_is_the_plain_fit() {
+    let m = blue_ggx();
+    let base = settings(Reduction::default().with_resolution(30, 30));
+    let (plain, plain_report) = fit_brdf(&m, &base).unwrap();
+    assert!(plain.at_largest_margin(&plain_report).is_none());
+    let engine = base.fit_settings().clone().with_centred_fit(true);
+    let (centred, report) = fit_brdf(&m, &base.clone().with_fit_settings(engine)).unwrap();
+    assert!(report.channels.iter().any(|c| c.centred), "{report}");
+    let other = centred
+        .at_largest_margin(&report)
+        .expect("centred functions");
+    // The same splits and bytes; each function the plain sweep's point.
+    assert_eq!(other.byte_size_f32(), centred.byte_size_f32());
+    assert_eq!(other, plain);
+    assert_ne!(centred, plain);
 }

@@ -9,8 +9,10 @@
 //! `min ||A c - d||^2` with `R = qr(A | d)` becomes `min ||z||^2` for
 //! `z = R_A c - f`, subject to `G R_A^-1 z >= kappa - G R_A^-1 f`.
 
-use crate::fit::{Prepared, SplitFit};
+use crate::fit::{Centring, Prepared, SplitFit};
 use crate::problem::{DesignMatrix, Refinement};
+use crate::report::LargestMargin;
+use crate::verify::error_figures;
 use crate::{blocked_triangular_factor, FitError, IntervalData};
 use faer::{Mat, MatRef, Par};
 use qp_backends::{Backend, LdpProblem, SolveOptions, Status};
@@ -26,6 +28,11 @@ const SCALE_WEIGHT: f64 = 10.0;
 /// the least squares well posed on a nearly dependent basis.
 const RIDGE: f64 = 1e-3;
 
+/// Solves of the centred point with the rows its refinement asks for
+/// (the pole check's `q > 0` at grid points where it dips) before the
+/// largest-margin point is kept instead.
+const MAX_CENTRE_ROUNDS: usize = 4;
+
 /// Largest dense `G R_A^-1` built (entries): about 130 MB.
 const MAX_ENTRIES: usize = 1 << 24;
 
@@ -33,39 +40,61 @@ impl Prepared<'_> {
     /// `fit` with its function the least-squares fit within its intervals
     /// ([`crate::FitSettings::with_centred_fit`]) when it kept its
     /// largest-margin point for it and the centred point passes
-    /// verification and the refinement (poles, extra rows) at once; as it
-    /// is otherwise. The sweep centres only the split it returns.
+    /// verification and the refinement: where the pole check (or the
+    /// caller's refinement) asks for rows, the centred point is solved
+    /// again with them, as the split's own solve is, at most
+    /// [`MAX_CENTRE_ROUNDS`] times. As it is otherwise. The sweep centres
+    /// only the split it returns.
     pub(crate) fn centre(
         &self,
         mut fit: SplitFit,
         data: &IntervalData,
     ) -> Result<SplitFit, FitError> {
-        let Some(point) = fit.margin_point.take() else {
+        let Centring::Pending(point) = std::mem::take(&mut fit.centring) else {
             return Ok(fit);
         };
         let (n_p, n_q) = (fit.summary.n_p, fit.summary.n_q);
-        let problem = self.problem(data, n_p, n_q, &point.rows)?;
-        let input = CentreInput {
-            problem: &problem,
-            design: &self.design_of_width(n_p.max(n_q))?,
-            data,
-            scale: self.scale,
-            split: (n_p, n_q),
-        };
-        let Some(c) = centred(&input, &point.x, self.settings.backend) else {
-            return Ok(fit);
-        };
-        let f = self.candidate(&self.basis.with_len(n_p.max(n_q))?, &c, n_p)?;
-        let ver = self.verify(&f, data, &point.rows)?;
-        if !ver.satisfied {
-            return Ok(fit);
-        }
+        let design = self.design_of_width(n_p.max(n_q))?;
         let (mut trial, mut poles) = (fit.summary.clone(), fit.poles);
-        if let Refinement::Accept = self.refine(&f, &ver, data, &mut trial, &mut poles) {
-            fit.function = Some(f);
-            fit.verification = Some(ver);
-            fit.poles = poles;
-            fit.summary.centred = true;
+        let mut rows = point.rows;
+        for _ in 0..=MAX_CENTRE_ROUNDS {
+            let problem = self.problem(data, n_p, n_q, &rows)?;
+            let input = CentreInput {
+                problem: &problem,
+                design: &design,
+                data,
+                scale: self.scale,
+                split: (n_p, n_q),
+            };
+            let Some(c) = centred(&input, &point.x, self.settings.backend) else {
+                return Ok(fit);
+            };
+            let f = self.candidate(&self.basis.with_len(n_p.max(n_q))?, &c, n_p)?;
+            let ver = self.verify(&f, data, &rows)?;
+            if !ver.satisfied {
+                return Ok(fit);
+            }
+            match self.refine(&f, &ver, data, &mut trial, &mut poles) {
+                Refinement::Accept => {
+                    if let (Some(function), Some(verification)) =
+                        (fit.function.take(), fit.verification)
+                    {
+                        fit.centring = Centring::Replaced(Box::new(LargestMargin {
+                            errors: error_figures(&function, data),
+                            function,
+                            verification,
+                            poles: fit.poles,
+                        }));
+                    }
+                    fit.function = Some(f);
+                    fit.verification = Some(ver);
+                    fit.poles = poles;
+                    fit.summary.centred = true;
+                    return Ok(fit);
+                }
+                Refinement::AddRows(more) => rows.extend(more),
+                Refinement::Reject { .. } => return Ok(fit),
+            }
         }
         Ok(fit)
     }

@@ -5,7 +5,7 @@ use crate::poles::{bernstein_margin, bernstein_rows, grid_check, grid_size};
 use crate::problem::{
     build_problem_in, condition_number, DesignMatrix, ExtraConstraints, Refinement, SharedDesign,
 };
-use crate::report::{PoleReport, SplitSummary};
+use crate::report::{LargestMargin, PoleReport, SplitSummary};
 use crate::screen::{data_row, Screened, Subsample};
 use crate::verify::{verify, verify_with, Verification};
 use crate::{Basis, FitError, FitSettings, IntervalData, PoleControl, RationalFunction};
@@ -31,9 +31,22 @@ pub struct SplitFit {
     pub verification: Option<Verification>,
     /// Pole figures of the accepted function.
     pub poles: PoleReport,
-    /// The accepted largest-margin point, kept for centring once the sweep
-    /// has chosen ([`FitSettings::with_centred_fit`]).
-    pub(crate) margin_point: Option<MarginPoint>,
+    /// Where the split stands with centring
+    /// ([`FitSettings::with_centred_fit`]).
+    pub(crate) centring: Centring,
+}
+
+/// A split's centring ([`FitSettings::with_centred_fit`]).
+#[derive(Debug, Clone, Default)]
+pub(crate) enum Centring {
+    /// Not asked for, not accepted, or tried and kept as it was.
+    #[default]
+    None,
+    /// The accepted largest-margin point, kept for centring once the
+    /// sweep has chosen.
+    Pending(MarginPoint),
+    /// Centred: the largest-margin point it replaced.
+    Replaced(Box<LargestMargin>),
 }
 
 /// A split's accepted solution of P(n_p, n_q) and the rows of that
@@ -269,12 +282,12 @@ impl<'a> Prepared<'a> {
                 function: None,
                 verification: None,
                 poles,
-                margin_point: None,
+                centring: Centring::None,
             });
         }
         // Each exit of the loop names the outcome; the timing and the result
         // are assembled once below.
-        let mut margin_point = None;
+        let mut centring = Centring::None;
         let (function, verification) = loop {
             let problem = self.problem(data, n_p, n_q, &rows)?;
             let sol = self.solve_program(&problem, warm, data, active)?;
@@ -317,7 +330,7 @@ impl<'a> Prepared<'a> {
                 _ => {}
             }
             if self.settings.centred {
-                margin_point = Some(MarginPoint {
+                centring = Centring::Pending(MarginPoint {
                     x: sol.x.clone(),
                     rows: rows.clone(),
                 });
@@ -340,7 +353,7 @@ impl<'a> Prepared<'a> {
             function,
             verification,
             poles,
-            margin_point,
+            centring,
         })
     }
 

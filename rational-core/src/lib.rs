@@ -71,7 +71,7 @@ pub use problem::{
 pub use proof::NoFitProof;
 pub use qp_backends::{Backend, SolveOptions, Status};
 pub use rational::RationalFunction;
-pub use report::{FitReport, PoleReport, SplitSummary};
+pub use report::{FitReport, LargestMargin, PoleReport, SplitSummary};
 pub use settings::{FitSettings, Progress, ProgressFn, Screen, Search, Selection, PROBE_FRACTIONS};
 pub use sweep::fit;
 pub use verify::{ErrorFigures, Verification};

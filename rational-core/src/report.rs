@@ -125,8 +125,28 @@ pub struct FitReport {
     /// ([`crate::FitSettings::with_centred_fit`]).
     #[serde(default)]
     pub centred: bool,
+    /// When [`Self::centred`], the same split's point of largest margin,
+    /// verified like the returned function: an alternative for a caller
+    /// that judges the two by what the intervals do not see (a render).
+    /// Not written: a fit read back has none.
+    #[serde(skip)]
+    pub largest_margin: Option<Box<LargestMargin>>,
     /// Every split solved, in order.
     pub splits: Vec<SplitSummary>,
+}
+
+/// A centred fit's split at its point of largest margin
+/// ([`FitReport::largest_margin`]).
+#[derive(Debug, Clone)]
+pub struct LargestMargin {
+    /// The function at that point.
+    pub function: RationalFunction,
+    /// Its errors against the measured values.
+    pub errors: ErrorFigures,
+    /// Its f64 check against every constraint.
+    pub verification: Verification,
+    /// Its pole figures.
+    pub poles: PoleReport,
 }
 
 impl FitReport {
@@ -141,6 +161,27 @@ impl FitReport {
             .filter(|s| s.widenings == self.widenings && s.proved_infeasible())
             .map(|s| (s.n_p, s.n_q))
             .collect()
+    }
+
+    /// This report with its function at the split's point of largest
+    /// margin ([`Self::largest_margin`]), or `None` when it has none.
+    pub fn at_largest_margin(&self) -> Option<FitReport> {
+        let m = self.largest_margin.as_deref()?;
+        let mut splits = self.splits.clone();
+        for s in &mut splits {
+            s.centred = false;
+        }
+        Some(FitReport {
+            function: m.function.clone(),
+            errors: m.errors,
+            verification: m.verification,
+            poles: m.poles,
+            centred: false,
+            largest_margin: None,
+            splits,
+            backend: self.backend.clone(),
+            ..*self
+        })
     }
 }
 

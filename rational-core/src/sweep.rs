@@ -2,7 +2,7 @@
 //! by condition, probes or the staircase), the widening levels, and the
 //! selection among accepted splits. One split's solve is in `fit.rs`.
 
-use crate::fit::{Prepared, SplitFit};
+use crate::fit::{Centring, Prepared, SplitFit};
 use crate::problem::{condition_number, ExtraConstraints, NoExtraConstraints};
 use crate::report::{FitReport, SplitSummary};
 use crate::verify::error_figures;
@@ -198,6 +198,10 @@ impl Sweep<'_, '_> {
                 }
                 let function = best.function.expect("accepted splits carry a function");
                 let errors = error_figures(&function, &current);
+                let largest_margin = match best.centring {
+                    Centring::Replaced(point) => Some(point),
+                    _ => None,
+                };
                 return Ok(FitReport {
                     n_p: best.summary.n_p,
                     n_q: best.summary.n_q,
@@ -215,6 +219,7 @@ impl Sweep<'_, '_> {
                     selection: settings.selection,
                     search: settings.search,
                     centred: best.summary.centred,
+                    largest_margin,
                     splits: std::mem::take(summaries),
                     function,
                 });

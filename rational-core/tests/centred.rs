@@ -29,15 +29,20 @@ fn fit_both(data: &IntervalData, settings: FitSettings) -> [(f64, f64); 2] {
     })
 }
 
-#[test]
-fn centred_fits_stay_within_and_nearer_the_centres() {
-    // A peak and a smooth 2-D product, each at a fixed budget.
-    let x: Vec<f64> = (0..400).map(|i| i as f64 / 399.0).collect();
+/// A peak on a slope at `n` points of [0, 1], within 5%.
+fn peak_at(n: usize) -> IntervalData {
+    let x: Vec<f64> = (0..n).map(|i| i as f64 / (n - 1) as f64).collect();
     let v: Vec<f64> = x
         .iter()
         .map(|x| 1.0 / (0.05 + (x - 0.3) * (x - 0.3)) + 2.0 * x)
         .collect();
-    let peak = IntervalData::from_values_relative(1, x, v, 0.05).unwrap();
+    IntervalData::from_values_relative(1, x, v, 0.05).unwrap()
+}
+
+#[test]
+fn centred_fits_stay_within_and_nearer_the_centres() {
+    // A peak and a smooth 2-D product, each at a fixed budget.
+    let peak = peak_at(400);
     let mut points = Vec::new();
     let mut values = Vec::new();
     for i in 0..30 {
@@ -61,4 +66,31 @@ fn centred_fits_stay_within_and_nearer_the_centres() {
         assert!(centred.1 <= 1.0 + 1e-9, "{name}: outside an interval");
         assert!(centred.0 < margin.0, "{name}: not nearer the centres");
     }
+}
+
+#[test]
+fn a_centred_fit_keeps_its_largest_margin_point_as_the_plain_fit_returns_it() {
+    let data = peak_at(300);
+    let settings = FitSettings::default()
+        .with_search(Search::Staircase)
+        .with_coeff_range(2, 40)
+        .unwrap();
+    let plain = Fitter::new(&data).settings(settings.clone()).fit().unwrap();
+    assert!(plain.largest_margin.is_none() && plain.at_largest_margin().is_none());
+    let centred = Fitter::new(&data)
+        .settings(settings.with_centred_fit(true))
+        .fit()
+        .unwrap();
+    assert!(centred.centred);
+    let other = centred.at_largest_margin().expect("a centred fit keeps it");
+    // The same split and point as the plain sweep's, checked like it.
+    assert_eq!((other.n_p, other.n_q), (plain.n_p, plain.n_q));
+    assert!(!other.centred && other.largest_margin.is_none());
+    assert!(other.verification.satisfied);
+    assert!(other.splits.iter().all(|s| !s.centred));
+    let (a, b) = (other.function.numerator(), plain.function.numerator());
+    assert_eq!(a, b, "the largest-margin point is the plain fit's");
+    let bits = |r: &rational_core::FitReport| r.errors.max_relative.to_bits();
+    assert_eq!(bits(&other), bits(&plain));
+    assert_ne!(centred.function.numerator(), plain.function.numerator());
 }

@@ -38,6 +38,7 @@ mod target;
 mod target_choices;
 mod target_grid;
 mod target_larger_budget;
+mod target_point;
 mod target_report;
 mod target_search;
 mod target_searches;
@@ -55,7 +56,9 @@ pub use target_choices::{
     TARGET_MAX_COEFFS, TARGET_PHI, TARGET_SEARCH_REVISION, TARGET_SLICE, TARGET_TIME_BUDGET_S,
 };
 pub use target_grid::{GridChoice, TargetGrid, FINE_GRID_FLOOR_FACTOR, TARGET_FINE_GRID_3D};
-pub use target_report::{GridFloor, SliceFloor, TargetAttempt, TargetBudget, TargetReport};
+pub use target_report::{
+    GridFloor, PointChoice, SliceFloor, TargetAttempt, TargetBudget, TargetReport,
+};
 
 /// The two validation scenes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]

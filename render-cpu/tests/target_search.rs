@@ -551,3 +551,23 @@ fn a_missed_target_bounded_by_coefficients_is_searched_with_twice_the_budget() {
     let far = search(worst / 3.0, TargetCoefficients::Auto, None);
     assert!(far.tried.iter().all(|a| a.larger_budget.is_none()), "{far}");
 }
+
+/// The search's fits are centred; the returned fit is the one of its two
+/// points (least squares within the intervals, largest margin) whose
+/// renders are closer, and the report gives both errors.
+#[test]
+fn the_returned_fit_has_the_point_that_renders_closer() {
+    let report = glossy_target_report(1e-3, [8, 8, 4], 30);
+    let choice = report
+        .point_choice
+        .expect("a centred fit is measured at both points");
+    let worst = report.scenes.iter().map(|s| s.mean_de).fold(0.0, f64::max);
+    let closer = choice.least_squares.min(choice.largest_margin);
+    assert_eq!(worst.to_bits(), closer.to_bits(), "{report}");
+    let kept = if choice.largest_margin_chosen() {
+        "at their largest-margin points"
+    } else {
+        "at their least-squares points within the intervals"
+    };
+    assert!(report.to_string().contains(kept), "{report}");
+}

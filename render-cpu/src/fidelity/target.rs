@@ -381,14 +381,16 @@ pub fn fit_to_target(
         slice_floor,
         grid_choice,
     } = run_searches(&goal, base, choices)?;
-    let Some(Measured {
+    let Some(best) = best else {
+        return Err(no_fit_within_budgets(&table.name(), budget.bytes, &tried));
+    };
+    let Measured {
         fitted,
         errors,
         attempt,
-    }) = best
-    else {
-        return Err(no_fit_within_budgets(&table.name(), budget.bytes, &tried));
-    };
+        point_choice,
+        ..
+    } = best;
     let reached = errors.worst_mean() <= target_de;
     let grid_floor = if !reached && fitted.reduction.kind == brdf::ReductionKind::Full3d {
         let r = &fitted.reduction;
@@ -428,6 +430,7 @@ pub fn fit_to_target(
         shell_layout: fitted.shell.as_ref().map(brdf::ShellFactor::layout),
         scenes: errors.scenes.clone(),
         noise: validator.noise.clone(),
+        point_choice,
         tried,
         seconds: start.elapsed().as_secs_f64(),
     };

@@ -149,7 +149,7 @@ pub const TARGET_MAX_COEFFS: usize = 120;
 /// fits it returns change: a scene's cached target fit is keyed by it, so
 /// that a fit made by another search (or cached before the key named the
 /// search) is fitted again rather than read back.
-pub const TARGET_SEARCH_REVISION: u32 = 6;
+pub const TARGET_SEARCH_REVISION: u32 = 7;
 
 /// Seconds a target fit may spend on fits and renders by default
 /// (`ratfit fit --time-budget`, a scene's `target_de`, the Python package's

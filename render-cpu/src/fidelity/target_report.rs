@@ -175,6 +175,45 @@ pub struct SliceFloor {
     pub left_for_time: bool,
 }
 
+/// The chosen fit's render error (worse scene) with each function at its
+/// split's least-squares point within the intervals, the search's own
+/// (`rational_core::FitSettings::with_centred_fit`), and at its point of
+/// largest margin; the lower is returned.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct PointChoice {
+    /// With the least-squares points.
+    pub least_squares: f64,
+    /// With the largest-margin points.
+    pub largest_margin: f64,
+}
+
+impl PointChoice {
+    /// Whether the largest-margin points were returned.
+    pub fn largest_margin_chosen(&self) -> bool {
+        self.largest_margin < self.least_squares
+    }
+
+    /// One line: the point returned and both errors.
+    pub fn describe(&self) -> String {
+        let (kept, other) = if self.largest_margin_chosen() {
+            (
+                "largest-margin points",
+                "least-squares points within the intervals",
+            )
+        } else {
+            (
+                "least-squares points within the intervals",
+                "largest-margin points",
+            )
+        };
+        format!(
+            "its functions at their {kept} (worse scene {:.3}; at their {other} {:.3})",
+            self.largest_margin.min(self.least_squares),
+            self.largest_margin.max(self.least_squares),
+        )
+    }
+}
+
 /// What [`super::fit_to_target`] reached.
 #[derive(Debug, Clone, Serialize)]
 pub struct TargetReport {
@@ -231,6 +270,11 @@ pub struct TargetReport {
     /// luminance alone and of its colour alone ([`super::colour_split`]),
     /// which says which functions to improve.
     pub colour_split: Option<super::ColourSplit>,
+    /// When a function of the chosen fit was centred: its render error
+    /// with the least-squares and with the largest-margin points, the
+    /// lower returned.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub point_choice: Option<PointChoice>,
     /// Every fit tried, in order.
     pub tried: Vec<TargetAttempt>,
     /// Total time in seconds (fits and renders).
@@ -321,6 +365,9 @@ impl std::fmt::Display for TargetReport {
         }
         if let Some(split) = &self.colour_split {
             writeln!(f, "  {}", split.describe("the fit"))?;
+        }
+        if let Some(p) = self.point_choice {
+            writeln!(f, "  {}", p.describe())?;
         }
         for a in &self.tried {
             writeln!(f, "  {a}")?;

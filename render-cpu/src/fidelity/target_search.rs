@@ -1,9 +1,10 @@
 //! The search of one reduction for [`super::fit_to_target`]: tolerances
 //! tried in turn, each fit widened at most twice, measured on the
-//! validation renders and given its evaluation cut.
+//! validation renders and given its evaluation cut; the best fit measured
+//! again at its functions' other point within the same intervals.
 
 use super::fit_beside::{ahead_settings, ChannelGate};
-use super::target_report::{TargetAttempt, TargetBudget};
+use super::target_report::{PointChoice, TargetAttempt, TargetBudget};
 use super::target_walk::{Verdict, Walk};
 use super::{choose_evaluation_cut, RenderErrors, Validator};
 use crate::RenderError;
@@ -51,7 +52,10 @@ const MAX_WIDENINGS: usize = 2;
 /// The engine of a target fit: `settings`' with the target's widening,
 /// each function the least-squares fit within its intervals rather than
 /// the point of largest margin (`FitSettings::with_centred_fit`: nearer
-/// the table at the same bytes; docs/results/fidelity-2026-12-07-centred.md),
+/// the table at the same bytes; docs/results/fidelity-2026-12-07-centred.md;
+/// each search's best fit is then also measured at the largest-margin
+/// points and keeps whichever renders closer,
+/// [`super::target_point::at_better_point`]),
 /// and no function given more coefficients than the byte budget holds (its
 /// fits stop there and widen instead of searching sizes that could not be
 /// returned). In RGB each channel carries the material's whole shape, so
@@ -134,11 +138,19 @@ pub(super) struct Measured {
     pub(super) fitted: brdf::FittedBrdf,
     pub(super) errors: RenderErrors,
     pub(super) attempt: TargetAttempt,
+    /// The fit as fitted with its functions at their splits' largest-margin
+    /// points ([`brdf::FittedBrdf::at_largest_margin`]), when it is within
+    /// the byte budget and any function was centred.
+    pub(super) largest_margin: Option<brdf::FittedBrdf>,
+    /// The render errors of both points, once
+    /// [`super::target_point::at_better_point`] chose.
+    pub(super) point_choice: Option<PointChoice>,
 }
 
 /// One tolerance's fit before its validation renders.
 struct Unmeasured {
     fitted: brdf::FittedBrdf,
+    largest_margin: Option<brdf::FittedBrdf>,
     widened: f64,
     limiting: Option<char>,
     started: Instant,
@@ -166,6 +178,7 @@ fn fit_only(goal: &Goal, settings: &brdf::BrdfFitSettings, t: f64) -> FitOutcome
                 .filter(|_| widened > 1.0)
                 .map(|c| settings.colour_mode().names()[c]);
             Ok(Ok(Unmeasured {
+                largest_margin: fitted.at_largest_margin(&r),
                 fitted,
                 widened,
                 limiting,
@@ -192,25 +205,9 @@ fn measure(
     t: f64,
     fit: Unmeasured,
 ) -> Result<Measured, RenderError> {
-    let (validator, table, budget) = (goal.validator, goal.table, goal.budget);
-    let fitted = fit.fitted;
-    let errors = validator.measure(Arc::new(crate::scene::FitInDomain::new(fitted.clone())))?;
-    // A fit whose functions alone pass the byte budget passes it at every
-    // cut, with or without a shell: it can never be returned, so its
-    // evaluation cut is not chosen (a validation per cut and layout).
-    let (fitted, errors, cut, shell) = if budget.passed_by(fitted.byte_size_f32()) {
-        (fitted, errors, None, false)
-    } else {
-        let choice = choose_evaluation_cut(
-            validator,
-            table.as_ref(),
-            fitted,
-            errors,
-            Some(goal.target_de),
-            budget.bytes,
-        )?;
-        (choice.fitted, choice.errors, choice.cut, choice.shell)
-    };
+    let budget = goal.budget;
+    let over_budget = budget.passed_by(fit.fitted.byte_size_f32());
+    let (fitted, errors, cut, shell) = evaluated(goal, fit.fitted)?;
     let bytes = fitted.byte_size_f32();
     let attempt = TargetAttempt {
         dims: settings.reduction().dims(),
@@ -231,7 +228,36 @@ fn measure(
         fitted,
         errors,
         attempt,
+        largest_margin: fit.largest_margin.filter(|_| !over_budget),
+        point_choice: None,
     })
+}
+
+/// `fitted` measured on the validation renders and given its evaluation
+/// cut ([`choose_evaluation_cut`], within the byte budget when it can be):
+/// the fit so evaluated, its errors, the cut and whether a shell factor
+/// was chosen.
+fn evaluated(
+    goal: &Goal,
+    fitted: brdf::FittedBrdf,
+) -> Result<(brdf::FittedBrdf, RenderErrors, Option<f64>, bool), RenderError> {
+    let (validator, table, budget) = (goal.validator, goal.table, goal.budget);
+    let errors = validator.measure(Arc::new(crate::scene::FitInDomain::new(fitted.clone())))?;
+    // A fit whose functions alone pass the byte budget passes it at every
+    // cut, with or without a shell: it can never be returned, so its
+    // evaluation cut is not chosen (a validation per cut and layout).
+    if budget.passed_by(fitted.byte_size_f32()) {
+        return Ok((fitted, errors, None, false));
+    }
+    let choice = choose_evaluation_cut(
+        validator,
+        table.as_ref(),
+        fitted,
+        errors,
+        Some(goal.target_de),
+        budget.bytes,
+    )?;
+    Ok((choice.fitted, choice.errors, choice.cut, choice.shell))
 }
 
 /// What [`fit_only`] returns.
@@ -353,6 +379,9 @@ pub(super) fn search_tolerances(
         if !goes_on {
             break;
         }
+    }
+    if let Some(best) = search.best.take() {
+        search.best = Some(super::target_point::at_better_point(goal, best)?);
     }
     Ok(search)
 }
