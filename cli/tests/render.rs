@@ -225,11 +225,9 @@ fn bench_render_compares_samplers_against_a_reference() {
 
 #[test]
 fn the_example_scenes_prepare_and_render() {
-    let data = common::data_dir();
-    if !data.is_dir() {
-        eprintln!("SKIPPED: the example scenes use measured data (set RATFIT_DATA)");
+    let Some(data) = common::rgl_data("the example scenes, which use measured data") else {
         return;
-    }
+    };
     let dir = scratch("examples");
     let scenes = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../scenes");
     for name in ["sphere-lights", "sphere-sky", "lights256", "cornell"] {

@@ -100,11 +100,9 @@ fn bench_rgl_fits_real_files_in_two_and_three_dimensions() {
         String::from_utf8_lossy(&out.stderr)
     );
 
-    let data = common::data_dir();
-    if !data.join("rgl").is_dir() {
-        eprintln!("SKIPPED bench rgl on real files: no data folder (set RATFIT_DATA)");
+    let Some(data) = common::rgl_data("bench rgl on real files") else {
         return;
-    }
+    };
     let out_dir = dir.join("out");
     let out = ratfit()
         .args(["bench", "rgl"])
@@ -167,11 +165,9 @@ fn bench_rgl_fits_real_files_in_two_and_three_dimensions() {
 /// refused before anything is fitted.
 #[test]
 fn batch_resumes_shards_and_refuses_bad_manifests() {
-    let data = common::data_dir();
-    if !data.join("rgl").is_dir() {
-        eprintln!("SKIPPED batch on real files: no data folder (set RATFIT_DATA)");
+    let Some(data) = common::rgl_data("batch on real files") else {
         return;
-    }
+    };
     let dir = std::env::temp_dir().join(format!("ratfit-batch-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let manifest = dir.join("m.toml");

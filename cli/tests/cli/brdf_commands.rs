@@ -208,11 +208,9 @@ fn lobe_is_refused_for_scattered_and_alta_data() {
 #[test]
 fn ctrl_c_stops_a_long_fit_promptly_and_writes_nothing() {
     use std::time::{Duration, Instant};
-    let data = common::data_dir();
-    if !data.join("rgl").is_dir() {
-        eprintln!("SKIPPED Ctrl-C on a real fit: no data folder (set RATFIT_DATA)");
+    let Some(data) = common::rgl_data("Ctrl-C on a real fit") else {
         return;
-    }
+    };
     let dir = scratch("interrupt");
     let output = dir.join("fit.json");
     // Minutes of work: 3-D, 10% intervals, up to 120 coefficients.
@@ -303,12 +301,7 @@ fn the_render_check_of_a_perceptual_fit_chooses_its_evaluation_cut() {
         .arg(&fit)
         .output()
         .unwrap();
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let stdout = crate::stdout_of_success(out);
     let line = stdout
         .lines()
         .find(|l| l.starts_with("evaluation cut chosen by the validation renders"))
@@ -421,11 +414,9 @@ fn a_target_fit_samples_the_shared_3d_grid_and_reports_what_it_reached() {
 /// is centred only once it is solved again with those rows.
 #[test]
 fn a_centred_point_that_needs_pole_rows_is_solved_again_with_them() {
-    let data = common::data_dir();
-    if !data.join("rgl").is_dir() {
-        eprintln!("SKIPPED centred pole rows on a real fit: no data folder (set RATFIT_DATA)");
+    let Some(data) = common::rgl_data("centred pole rows on a real fit") else {
         return;
-    }
+    };
     let dir = scratch("centred-pole-rows");
     let out = ratfit()
         .arg("fit")
@@ -456,12 +447,7 @@ fn a_centred_point_that_needs_pole_rows_is_solved_again_with_them() {
         .arg(dir.join("fit.json"))
         .output()
         .unwrap();
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let stdout = crate::stdout_of_success(out);
     assert!(
         stdout.contains("least squares within the intervals (not the largest margin): Yrb"),
         "{stdout}"

@@ -26,6 +26,19 @@ pub fn data_dir() -> PathBuf {
     ratfit_tests::data_dir().unwrap_or_else(|| PathBuf::from("no-data-folder"))
 }
 
+/// The real data folder when it holds the RGL files; otherwise `None`,
+/// after saying that the test of `what` is skipped (CI always sets
+/// `RATFIT_DATA`).
+pub fn rgl_data(what: &str) -> Option<PathBuf> {
+    let data = data_dir();
+    if data.join("rgl").is_dir() {
+        Some(data)
+    } else {
+        eprintln!("SKIPPED {what}: no data folder (set RATFIT_DATA)");
+        None
+    }
+}
+
 /// A MERL file written from a Blinn-Phong material (a stand-in for a
 /// download), in `dir`.
 pub fn blinn_phong_merl(dir: &std::path::Path) -> PathBuf {
